@@ -1,0 +1,134 @@
+#pragma once
+// Plain description of a scene: what the JSON file says, validated and with
+// defaults filled in, but no runtime objects. The scene loader (import/)
+// produces it; World::build (sim/world.h) turns it into solver state in one
+// place. Units are SI throughout; angles are stored in degrees as written.
+#include <array>
+#include <optional>
+#include <string>
+#include <variant>
+#include <vector>
+
+namespace triad {
+
+using Vec3Desc = std::array<double, 3>;
+
+enum class BoundaryType { Slip, Sticky, Separate };
+enum class TransferScheme { Apic, Pic, Flip };
+enum class CouplingScheme { ThreeGrid, SingleGrid };
+enum class MaterialModel { FixedCorotated, NeoHookean, Snow, DruckerPrager, Water };
+enum class ObjectKind { Mpm, Rigid, Elastic };
+
+struct FramesDesc {
+  int count = 48;
+  double fps = 24.0;
+};
+
+struct BoundaryDesc {
+  BoundaryType type = BoundaryType::Slip;
+  double friction = 0.0;  // Coulomb coefficient against the domain walls
+};
+
+struct DomainDesc {
+  Vec3Desc min{0, 0, 0};
+  Vec3Desc max{1, 1, 1};
+  double dx = 0.02;
+  BoundaryDesc boundary;
+};
+
+struct SolverDesc {
+  double cfl = 0.4;        // fraction of a cell travelled (by material or waves) per step
+  double max_dt = 1e-3;    // upper bound on the step, seconds
+  int particles_per_cell = 8;
+  TransferScheme transfer = TransferScheme::Apic;
+  double flip_ratio = 0.95;  // FLIP share of the PIC/FLIP blend (transfer "flip")
+  CouplingScheme coupling = CouplingScheme::ThreeGrid;
+};
+
+// Every model's parameters in one flat struct; the loader fills the fields
+// that the named model takes and rejects the others.
+struct MaterialDesc {
+  std::string name;
+  MaterialModel model = MaterialModel::FixedCorotated;
+  double density = 1000.0;
+  // Elastic moduli (all solid models).
+  double youngs_modulus = 0.0;
+  double poisson_ratio = 0.0;
+  // Snow (Stomakhin et al. 2013).
+  double critical_compression = 2.5e-2;
+  double critical_stretch = 7.5e-3;
+  double hardening = 10.0;
+  // Drucker-Prager sand (Klar et al. 2016). Cohesion in pascals.
+  double friction_angle_deg = 30.0;
+  double cohesion = 0.0;
+  // Weakly compressible water (Tait equation of state).
+  double bulk_modulus = 0.0;
+  double viscosity = 0.0;  // dynamic viscosity, Pa s
+  double gamma = 7.0;      // Tait exponent
+};
+
+struct BoxDesc {
+  Vec3Desc min{0, 0, 0};
+  Vec3Desc max{0, 0, 0};
+};
+
+struct SphereDesc {
+  Vec3Desc center{0, 0, 0};
+  double radius = 0.0;
+};
+
+struct MeshDesc {
+  std::string path;           // as written in the scene (relative to it)
+  std::string resolved_path;  // absolute or relative to the working directory
+  double scale = 1.0;
+  Vec3Desc translate{0, 0, 0};
+  Vec3Desc rotate_deg{0, 0, 0};  // XYZ Euler, applied after scale, before translate
+};
+
+using ShapeDesc = std::variant<BoxDesc, SphereDesc, MeshDesc>;
+
+struct ObjectDesc {
+  std::string name;
+  ObjectKind kind = ObjectKind::Mpm;
+  int material = -1;  // index into SceneDesc::materials (mpm, elastic)
+  ShapeDesc shape;
+  Vec3Desc velocity{0, 0, 0};
+  Vec3Desc angular_velocity{0, 0, 0};  // rad/s (rigid)
+  double density = 0.0;                // rigid only
+  bool fixed = false;                  // rigid only
+  double friction = 0.0;               // against MPM material (rigid, elastic)
+};
+
+struct OutputDesc {
+  std::string dir;  // resolved: defaults to out/<name>
+  bool ply = true;
+  bool vdb = true;
+  bool png = true;
+};
+
+struct CameraDesc {
+  Vec3Desc eye{0, 0, 0};
+  Vec3Desc target{0, 0, 0};
+  double fov_deg = 40.0;
+};
+
+struct RenderDesc {
+  std::array<int, 2> resolution{640, 360};
+  std::optional<CameraDesc> camera;  // absent: frame the domain automatically
+};
+
+struct SceneDesc {
+  std::string source_path;  // the scene file, for messages
+  int version = 1;
+  std::string name;
+  FramesDesc frames;
+  DomainDesc domain;
+  Vec3Desc gravity{0, -9.81, 0};
+  SolverDesc solver;
+  std::vector<MaterialDesc> materials;
+  std::vector<ObjectDesc> objects;
+  OutputDesc output;
+  RenderDesc render;
+};
+
+}  // namespace triad
