@@ -1,0 +1,27 @@
+#pragma once
+// Runs a scene file into a cache: the whole pipeline behind `triad run`.
+#include <string>
+
+#include "app/progress.h"
+
+namespace triad {
+
+struct RunOptions {
+  std::string scene_path;
+  std::string out_dir;  // overrides output.dir when not empty
+  int threads = 0;      // 0: OpenMP's default
+  ProgressMode progress = ProgressMode::Auto;
+};
+
+// Exit statuses of the command line contract.
+enum ExitStatus { kExitOk = 0, kExitRunFailed = 1, kExitBadInput = 2 };
+
+// Loads, validates, simulates and writes the cache. Reports errors on stderr
+// and a summary on stdout; returns the exit status.
+int runScene(const RunOptions& options);
+
+// Cache paths, shared with readers and tests.
+std::string particlesPath(const std::string& out_dir, int frame);
+std::string runRecordPath(const std::string& out_dir);
+
+}  // namespace triad

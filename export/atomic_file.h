@@ -1,0 +1,18 @@
+#pragma once
+// Files written completely or not at all: data goes to a temporary name in
+// the same directory, is flushed, and is renamed over the target.
+#include <functional>
+#include <ostream>
+#include <string>
+
+namespace triad {
+
+// Calls write(stream) on a temporary file beside `path`, then renames it to
+// `path`. On any failure the temporary is removed, `path` is left as it was,
+// and std::runtime_error names the file.
+void writeFileAtomically(const std::string& path, const std::function<void(std::ostream&)>& write);
+
+// Creates a directory and its parents; throws std::runtime_error naming it.
+void makeDirectories(const std::string& path);
+
+}  // namespace triad

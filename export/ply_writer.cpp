@@ -1,0 +1,57 @@
+#include "export/ply_writer.h"
+
+#include <cstring>
+#include <vector>
+
+#include "export/atomic_file.h"
+
+namespace triad {
+
+namespace {
+
+// One vertex record exactly as laid out in the file.
+#pragma pack(push, 1)
+struct PlyVertex {
+  float x, y, z, vx, vy, vz;
+  int32_t object;
+  float J;
+  int32_t id;
+};
+#pragma pack(pop)
+static_assert(sizeof(PlyVertex) == 36, "PLY vertex must be packed");
+
+}  // namespace
+
+void writeParticlesPly(const std::string& path, const World& world) {
+  static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "PLY writer assumes little-endian");
+  const size_t n = world.particleCount();
+  writeFileAtomically(path, [&](std::ostream& out) {
+    out << "ply\nformat binary_little_endian 1.0\n"
+        << "comment triad particles t=" << world.time << "\n"
+        << "element vertex " << n << "\n"
+        << "property float x\nproperty float y\nproperty float z\n"
+        << "property float vx\nproperty float vy\nproperty float vz\n"
+        << "property int object\nproperty float J\nproperty int id\n"
+        << "end_header\n";
+    // Stream in chunks to bound the temporary memory.
+    std::vector<PlyVertex> chunk;
+    chunk.reserve(65536);
+    for (const ParticleSet& set : world.sets) {
+      for (size_t i = 0; i < set.size(); ++i) {
+        const Vec3f& x = set.x[i];
+        const Vec3f& v = set.v[i];
+        chunk.push_back({x.x(), x.y(), x.z(), v.x(), v.y(), v.z(), int32_t(set.object[i]),
+                         set.volumeRatio(i), int32_t(set.id[i])});
+        if (chunk.size() == chunk.capacity()) {
+          out.write(reinterpret_cast<const char*>(chunk.data()),
+                    std::streamsize(chunk.size() * sizeof(PlyVertex)));
+          chunk.clear();
+        }
+      }
+    }
+    out.write(reinterpret_cast<const char*>(chunk.data()),
+              std::streamsize(chunk.size() * sizeof(PlyVertex)));
+  });
+}
+
+}  // namespace triad

@@ -1,0 +1,75 @@
+#include "export/run_record.h"
+
+#include <ctime>
+#include <fstream>
+#include <iomanip>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "export/atomic_file.h"
+
+namespace triad {
+
+void writeRunRecord(const std::string& path, const RunRecord& rec) {
+  nlohmann::ordered_json j;
+  j["triad_version"] = "0.1.0";
+  j["scene"] = {{"name", rec.scene_name}, {"path", rec.scene_path}, {"hash", rec.scene_hash}};
+  j["finished"] = rec.finished;
+  j["error"] = rec.error.empty() ? nlohmann::ordered_json(nullptr) : nlohmann::ordered_json(rec.error);
+  j["started_utc"] = rec.started_utc;
+  j["ended_utc"] = rec.ended_utc;
+  j["threads"] = rec.threads;
+  nlohmann::ordered_json per_object = nlohmann::ordered_json::object();
+  for (const auto& [name, n] : rec.object_particles) per_object[name] = n;
+  j["particles"] = {{"total", rec.particles}, {"per_object", per_object}};
+  j["frames"] = {{"requested", rec.frames_requested}, {"written", rec.frames_written}};
+  j["simulated_time"] = rec.simulated_time;
+  j["steps"] = rec.steps;
+  j["dt"] = {{"min", rec.dt_min}, {"max", rec.dt_max}};
+  nlohmann::ordered_json phases = nlohmann::ordered_json::object();
+  for (const auto& [name, s] : rec.phase_seconds) phases[name] = s;
+  j["wall_seconds"] = {{"total", rec.wall_seconds}, {"phases", phases}};
+  const double solve = rec.phase_seconds.count("solve") ? rec.phase_seconds.at("solve") : 0.0;
+  j["particle_substeps"] = rec.particle_steps;
+  j["particle_substeps_per_second"] = solve > 0.0 ? double(rec.particle_steps) / solve : 0.0;
+  j["memory"] = {{"peak_rss_bytes", rec.peak_rss_bytes},
+                 {"particle_bytes", rec.particle_bytes},
+                 {"grid_bytes", rec.grid_bytes}};
+  writeFileAtomically(path, [&](std::ostream& out) { out << j.dump(2) << "\n"; });
+}
+
+std::string hashFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  uint64_t h = 1469598103934665603ull;
+  char buf[65536];
+  while (in) {
+    in.read(buf, sizeof(buf));
+    for (std::streamsize i = 0; i < in.gcount(); ++i) {
+      h ^= static_cast<unsigned char>(buf[i]);
+      h *= 1099511628211ull;
+    }
+  }
+  std::ostringstream s;
+  s << "fnv1a64:" << std::hex << std::setw(16) << std::setfill('0') << h;
+  return s.str();
+}
+
+size_t peakResidentBytes() {
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  while (std::getline(status, line)) {
+    if (line.rfind("VmHWM:", 0) == 0) return std::stoull(line.substr(6)) * 1024;
+  }
+  return 0;
+}
+
+std::string utcNow() {
+  const std::time_t t = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  std::ostringstream s;
+  s << std::put_time(&tm, "%Y-%m-%dT%H:%M:%SZ");
+  return s.str();
+}
+
+}  // namespace triad

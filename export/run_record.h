@@ -1,0 +1,44 @@
+#pragma once
+// run.json: what ran, how long each phase took, and whether it finished.
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace triad {
+
+struct RunRecord {
+  std::string scene_name;
+  std::string scene_path;
+  std::string scene_hash;  // "fnv1a64:<hex>" of the scene file's bytes
+  int threads = 1;
+  size_t particles = 0;
+  std::vector<std::pair<std::string, size_t>> object_particles;  // in scene order
+  int frames_requested = 0;
+  int frames_written = 0;  // frames 0..frames_written-1 are complete on disk
+  double simulated_time = 0.0;
+  int64_t steps = 0;
+  double dt_min = 0.0, dt_max = 0.0;
+  uint64_t particle_steps = 0;
+  std::map<std::string, double> phase_seconds;  // solver phases, output, setup
+  double wall_seconds = 0.0;
+  size_t peak_rss_bytes = 0;
+  size_t particle_bytes = 0;
+  size_t grid_bytes = 0;
+  bool finished = false;
+  std::string error;  // empty when finished
+  std::string started_utc, ended_utc;
+};
+
+void writeRunRecord(const std::string& path, const RunRecord& rec);
+
+// FNV-1a 64-bit hash of a file's bytes, as "fnv1a64:<16 hex digits>".
+std::string hashFile(const std::string& path);
+
+// Peak resident set size of this process (VmHWM), bytes; 0 if unknown.
+size_t peakResidentBytes();
+
+// Current UTC time as ISO 8601.
+std::string utcNow();
+
+}  // namespace triad

@@ -1,0 +1,42 @@
+#pragma once
+// MPM particles stored as arrays of attributes (SoA), one ParticleSet per
+// material and sampling volume, so that the material variant is visited once
+// per set and every particle of a set has the same mass and rest volume.
+#include <cstdint>
+#include <vector>
+
+#include "sim/materials.h"
+#include "sim/math.h"
+
+namespace triad {
+
+struct ParticleSet {
+  int material = -1;  // index into SceneDesc::materials
+  Material model;
+  float mass = 0.0f;    // per particle, kg
+  float volume = 0.0f;  // rest volume per particle, m^3
+
+  std::vector<Vec3f> x;  // position, m
+  std::vector<Vec3f> v;  // velocity, m/s
+  // APIC affine velocity matrix. Between the stress pass and P2G of one step
+  // it holds the combined affine momentum instead (see transfer.cpp).
+  std::vector<Mat3f> C;
+  std::vector<Mat3f> F;         // (elastic) deformation gradient; empty for water
+  std::vector<float> J;         // water: volume ratio; snow and sand: plastic volume ratio
+  std::vector<uint32_t> id;     // stable particle id across frames
+  std::vector<uint16_t> object; // index into SceneDesc::objects
+
+  size_t size() const { return x.size(); }
+  bool usesF() const;
+  bool usesJ() const;
+  // Append one particle at rest state.
+  void push(const Vec3f& pos, const Vec3f& vel, uint32_t pid, uint16_t obj);
+  // Total volume ratio det(F) * J (or J alone for water) of particle i.
+  float volumeRatio(size_t i) const;
+  // Reorder every attribute by `src` (new[i] = old[src[i]]), using `scratch`.
+  void permute(const std::vector<uint32_t>& src, std::vector<unsigned char>& scratch);
+  // Bytes held by the attribute arrays (capacity, not size).
+  size_t bytes() const;
+};
+
+}  // namespace triad

@@ -1,0 +1,162 @@
+#include "sim/solver.h"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "sim/errors.h"
+
+namespace triad {
+
+namespace {
+
+// Accumulates the wall time of a scope into a phase counter.
+class PhaseTimer {
+ public:
+  explicit PhaseTimer(double& acc) : acc_(acc), start_(omp_get_wtime()) {}
+  ~PhaseTimer() { acc_ += omp_get_wtime() - start_; }
+  PhaseTimer(const PhaseTimer&) = delete;
+  PhaseTimer& operator=(const PhaseTimer&) = delete;
+
+ private:
+  double& acc_;
+  double start_;
+};
+
+// Below this step the simulation has blown up rather than become stiff.
+constexpr double kMinDt = 1e-10;
+
+}  // namespace
+
+Solver::Solver(World& world) : world_(world) {
+  const SceneDesc& scene = world.scene;
+  const DomainDesc& domain = scene.domain;
+  const float dx = static_cast<float>(domain.dx);
+  for (int d = 0; d < 3; ++d) {
+    params_.shifted_origin[d] = static_cast<float>(domain.min[d] + 0.5 * domain.dx);
+    walls_.hi[d] = static_cast<int>(std::lround((domain.max[d] - domain.min[d]) / domain.dx));
+    gravity_[d] = static_cast<float>(scene.gravity[d]);
+    params_.domain_lo[d] = static_cast<float>(domain.min[d]);
+    params_.domain_hi[d] = static_cast<float>(domain.max[d]);
+  }
+  params_.dx = dx;
+  params_.inv_dx = 1.0f / dx;
+  params_.scheme = scene.solver.transfer;
+  params_.flip_ratio = static_cast<float>(scene.solver.flip_ratio);
+  flip_ = scene.solver.transfer == TransferScheme::Flip;
+  walls_.type = domain.boundary.type;
+  walls_.friction = static_cast<float>(domain.boundary.friction);
+  for (const ParticleSet& set : world.sets)
+    wave_speed_.push_back(waveSpeed(scene.materials[set.material]));
+  for (const ParticleSet& set : world.sets)
+    for (const Vec3f& v : set.v) max_speed_ = std::max(max_speed_, v.norm());
+}
+
+double Solver::stableDt() const {
+  float c = 0.0f;
+  for (float w : wave_speed_) c = std::max(c, w);
+  // Hardened snow is stiffer: its wave speed grows with the square root.
+  c *= std::sqrt(max_stiffness_scale_);
+  const double speed = double(c) + double(max_speed_);
+  const SolverDesc& s = world_.scene.solver;
+  double dt = s.max_dt;
+  if (speed > 0.0) dt = std::min(dt, s.cfl * world_.scene.domain.dx / speed);
+  return dt;
+}
+
+void Solver::step(double dt) {
+  const float fdt = static_cast<float>(dt);
+  binParticles();
+  computeStress(fdt);
+  particlesToGrid();
+  updateGrid(fdt);
+  gridToParticles(fdt);
+
+  world_.steps++;
+  record_.steps++;
+  record_.particle_steps += world_.particleCount();
+  record_.dt_min = record_.steps == 1 ? dt : std::min(record_.dt_min, dt);
+  record_.dt_max = std::max(record_.dt_max, dt);
+}
+
+void Solver::advanceTo(double t, const std::function<void(double)>& on_step) {
+  while (world_.time < t) {
+    double dt = stableDt();
+    if (dt < kMinDt) {
+      std::ostringstream msg;
+      msg << "step " << world_.steps << " at t = " << world_.time
+          << " s: the stable time step collapsed to " << dt << " s (particle speed "
+          << max_speed_ << " m/s): the simulation is blowing up";
+      throw SimulationError(msg.str());
+    }
+    const double remaining = t - world_.time;
+    bool last = false;
+    if (dt >= remaining) {
+      dt = remaining;
+      last = true;
+    } else if (2.0 * dt > remaining) {
+      dt = 0.5 * remaining;
+    }
+    step(dt);
+    world_.time = last ? t : world_.time + dt;
+    if (on_step) on_step(dt);
+  }
+}
+
+void Solver::binParticles() {
+  PhaseTimer timer(times_.bin);
+  binner_.bin(world_.sets, params_.shifted_origin, params_.inv_dx, layout_);
+}
+
+void Solver::computeStress(float dt) {
+  PhaseTimer timer(times_.stress);
+  params_.dt = dt;
+  computeAffine(world_.sets, params_);
+}
+
+void Solver::particlesToGrid() {
+  PhaseTimer timer(times_.p2g);
+  triad::particlesToGrid(world_.sets, layout_, params_, grid_, flip_ ? &flip_grid_ : nullptr);
+}
+
+void Solver::updateGrid(float dt) {
+  PhaseTimer timer(times_.grid);
+  triad::updateGrid(layout_, grid_, flip_ ? &flip_grid_ : nullptr, gravity_, dt, walls_);
+}
+
+void Solver::gridToParticles(float dt) {
+  PhaseTimer timer(times_.g2p);
+  params_.dt = dt;
+  const G2PStats st =
+      triad::gridToParticles(world_.sets, layout_, params_, grid_, flip_ ? &flip_grid_ : nullptr);
+  if (!st.finite) reportNonFinite();
+  max_speed_ = st.max_speed;
+  max_stiffness_scale_ = st.max_stiffness_scale;
+}
+
+void Solver::reportNonFinite() const {
+  const SceneDesc& scene = world_.scene;
+  for (const ParticleSet& set : world_.sets) {
+    for (size_t i = 0; i < set.size(); ++i) {
+      if (std::isfinite(set.x[i].sum() + set.v[i].sum() + set.C[i].sum())) continue;
+      std::ostringstream msg;
+      msg << "step " << world_.steps + 1 << " at t = " << world_.time << " s: particle "
+          << set.id[i] << " of object '" << scene.objects[set.object[i]].name
+          << "' (material '" << scene.materials[set.material].name
+          << "') became non-finite: position (" << set.x[i].transpose() << "), velocity ("
+          << set.v[i].transpose() << ")";
+      throw SimulationError(msg.str());
+    }
+  }
+  throw SimulationError("step " + std::to_string(world_.steps + 1) +
+                        ": a particle became non-finite");
+}
+
+size_t Solver::bytes() const {
+  return grid_.capacity() * sizeof(GridNode) + flip_grid_.capacity() * sizeof(GridNode) +
+         layout_.bytes() + binner_.bytes();
+}
+
+}  // namespace triad

@@ -1,0 +1,73 @@
+#pragma once
+// The MLS-MPM time stepper. One step reads like the algorithm:
+// bin particles, compute stresses, P2G, grid update, G2P.
+#include <functional>
+#include <vector>
+
+#include "sim/grid_update.h"
+#include "sim/sparse_grid.h"
+#include "sim/transfer.h"
+#include "sim/world.h"
+
+namespace triad {
+
+// Wall-clock seconds spent in each phase of the step.
+struct PhaseTimes {
+  double bin = 0, stress = 0, p2g = 0, grid = 0, g2p = 0;
+  double total() const { return bin + stress + p2g + grid + g2p; }
+};
+
+struct StepRecord {
+  int64_t steps = 0;
+  double dt_min = 0.0, dt_max = 0.0;
+  uint64_t particle_steps = 0;  // particles times substeps
+};
+
+class Solver {
+ public:
+  explicit Solver(World& world);
+
+  // Largest stable step now: the CFL limit on material speed plus the
+  // materials' wave speed, capped by solver.max_dt.
+  double stableDt() const;
+
+  // One substep of length dt.
+  void step(double dt);
+
+  // Step until world.time equals t exactly. Steps are shortened so that the
+  // last one lands on t (and the one before is split evenly, so no tiny step
+  // remains). `on_step` is called after every substep.
+  void advanceTo(double t, const std::function<void(double dt)>& on_step = {});
+
+  const PhaseTimes& phaseTimes() const { return times_; }
+  const StepRecord& record() const { return record_; }
+  // Bytes held by grids and binning buffers (capacity).
+  size_t bytes() const;
+
+ private:
+  void binParticles();
+  void computeStress(float dt);
+  void particlesToGrid();
+  void updateGrid(float dt);
+  void gridToParticles(float dt);
+  [[noreturn]] void reportNonFinite() const;
+
+  World& world_;
+  TransferParams params_;
+  WallConditions walls_;
+  Vec3f gravity_;
+  std::vector<float> wave_speed_;  // per set, at rest
+  bool flip_ = false;
+
+  Binner binner_;
+  GridLayout layout_;
+  std::vector<GridNode> grid_;
+  std::vector<GridNode> flip_grid_;
+
+  float max_speed_ = 0.0f;
+  float max_stiffness_scale_ = 1.0f;
+  PhaseTimes times_;
+  StepRecord record_;
+};
+
+}  // namespace triad

@@ -1,0 +1,94 @@
+#pragma once
+// A sparse grid of 4x4x4-node blocks that exist only near particles, so that
+// memory follows the material rather than the domain. Each step the particles
+// are binned into the blocks that hold their stencil's base node; a block of
+// particles scatters into itself and its seven neighbours on the + side.
+// Blocks are coloured by coordinate parity: blocks of one colour never share
+// nodes, which makes parallel P2G free of races and its sums independent of
+// the thread count.
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+#include "sim/math.h"
+
+namespace triad {
+
+struct ParticleSet;
+
+constexpr int kBlockBits = 2;
+constexpr int kBlockSize = 1 << kBlockBits;                       // nodes per block side
+constexpr int kBlockNodes = kBlockSize * kBlockSize * kBlockSize;  // 64
+constexpr int kHalo = kBlockSize + 2;  // nodes a particle block touches per side (quadratic)
+constexpr int kHaloNodes = kHalo * kHalo * kHalo;
+
+// Grid node of the MPM grid: mass and momentum during P2G, velocity after the
+// grid update. 16 bytes so that a node is one vector register.
+struct alignas(16) GridNode {
+  float m;
+  float v[3];
+};
+
+// Packs block coordinates (21 bits each, offset to stay non-negative) into a
+// key whose order is x-major: sorting keys sorts blocks in memory order.
+uint64_t packBlock(const Vec3i& b);
+Vec3i unpackBlock(uint64_t key);
+
+// Floor division of node indices into block coordinates.
+inline int blockOf(int node) { return node >> kBlockBits; }
+
+// Which particles of which set fall in which block, and the grid blocks their
+// stencils reach. Rebuilt every step by bin().
+struct GridLayout {
+  // Grid blocks (sorted keys) and their node storage offsets (block * 64).
+  std::vector<uint64_t> grid_keys;
+  // Blocks that hold particles, sorted by key.
+  std::vector<uint64_t> particle_keys;
+  // For each particle block, the grid block indices of b + {0,1}^3 in the
+  // order dx*4 + dy*2 + dz.
+  std::vector<std::array<uint32_t, 8>> neighbours;
+  // For each colour (parity of bx, by, bz), the particle blocks of that colour.
+  std::array<std::vector<uint32_t>, 8> colour_blocks;
+  // Per set: offsets into the set's (sorted) particle arrays; block b holds
+  // particles [offsets[s][b], offsets[s][b+1]).
+  std::vector<std::vector<uint32_t>> offsets;
+
+  size_t gridBlocks() const { return grid_keys.size(); }
+  size_t particleBlocks() const { return particle_keys.size(); }
+  size_t bytes() const;
+};
+
+// Bins every set's particles into blocks, reorders each set's attribute arrays
+// by block (stable, so the order is the same for any thread count) and builds
+// the layout. `shifted_origin` is node 0 plus dx/2 (see shiftedCoord).
+class Binner {
+ public:
+  void bin(std::vector<ParticleSet>& sets, const Vec3f& shifted_origin, float inv_dx,
+           GridLayout& layout);
+  size_t bytes() const;
+
+ private:
+  std::vector<uint32_t> block_of_;  // per particle: its particle block index
+  std::vector<uint32_t> src_;       // per particle: source index of the sorted order
+  std::vector<unsigned char> scratch_;
+  std::vector<uint64_t> run_keys_;
+};
+
+// Node coordinate of x shifted down by half a cell, whose floor is the base
+// (lowest) node of the particle's quadratic stencil. `shifted_origin` is the
+// world position of node 0 plus dx/2. Written as (x - o) * s, with no add
+// after the multiply, so that no fused multiply-add can move floor() between
+// the binning and the transfers.
+inline float shiftedCoord(float x, float shifted_origin, float inv_dx) {
+  return (x - shifted_origin) * inv_dx;
+}
+
+inline Vec3i baseNode(const Vec3f& x, const Vec3f& shifted_origin, float inv_dx) {
+  Vec3i b;
+  for (int d = 0; d < 3; ++d)
+    b[d] = static_cast<int>(std::floor(shiftedCoord(x[d], shifted_origin[d], inv_dx)));
+  return b;
+}
+
+}  // namespace triad

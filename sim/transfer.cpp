@@ -1,0 +1,258 @@
+#include "sim/transfer.h"
+
+#include <cstring>
+
+#include "sim/particles.h"
+
+namespace triad {
+
+namespace {
+
+// A particle block's stencil region, gathered into a dense 6x6x6 buffer so
+// that the per-particle loops touch only L1-resident memory.
+template <int kChannels>
+struct HaloBuffer {
+  alignas(64) float d[kHaloNodes][kChannels];
+  static int index(int x, int y, int z) { return (x * kHalo + y) * kHalo + z; }
+};
+
+// Node offset inside a grid block.
+inline int blockNode(int x, int y, int z) { return (x * kBlockSize + y) * kBlockSize + z; }
+
+// Calls f(halo_index, grid_node_index) for every node of particle block pb's
+// halo, mapping it into the eight grid blocks it straddles.
+template <class F>
+void forHalo(const GridLayout& layout, size_t pb, F&& f) {
+  const auto& nb = layout.neighbours[pb];
+  for (int x = 0; x < kHalo; ++x)
+    for (int y = 0; y < kHalo; ++y)
+      for (int z = 0; z < kHalo; ++z) {
+        const int d = ((x >> kBlockBits) << 2) | ((y >> kBlockBits) << 1) | (z >> kBlockBits);
+        const size_t node = size_t{nb[d]} * kBlockNodes +
+                            blockNode(x & (kBlockSize - 1), y & (kBlockSize - 1), z & (kBlockSize - 1));
+        f(HaloBuffer<4>::index(x, y, z), node);
+      }
+}
+
+// Position of a stencil's base node inside particle block pb's halo.
+inline Vec3i haloOffset(const Stencil& s, const GridLayout& layout, size_t pb) {
+  const Vec3i b = unpackBlock(layout.particle_keys[pb]) * kBlockSize;
+  return Vec3i(s.base[0] - b.x(), s.base[1] - b.y(), s.base[2] - b.z());
+}
+
+// Kirchhoff stress of particle i of a set whose model is M.
+template <class M>
+Mat3f kirchhoffOf(const M& model, const ParticleSet& set, size_t i) {
+  if constexpr (std::is_same_v<M, Water<float>>) {
+    return model.kirchhoff(set.J[i], set.C[i]);
+  } else if constexpr (std::is_same_v<M, Snow<float>>) {
+    return model.kirchhoff(set.F[i], set.J[i]);
+  } else {
+    return model.kirchhoff(set.F[i]);
+  }
+}
+
+// Deformation update and plastic return mapping of particle i after G2P.
+// Returns the material's stiffness scale (snow hardening, else 1).
+template <class M>
+float updateDeformation(const M& model, ParticleSet& set, size_t i, float dt) {
+  const Mat3f& C = set.C[i];
+  if constexpr (std::is_same_v<M, Water<float>>) {
+    set.J[i] *= 1.0f + dt * C.trace();
+    return 1.0f;
+  } else {
+    Mat3f F = (Mat3f::Identity() + dt * C) * set.F[i];
+    float scale = 1.0f;
+    if constexpr (std::is_same_v<M, Snow<float>>) {
+      model.project(F, set.J[i]);
+      scale = model.stiffnessScale(set.J[i]);
+    } else if constexpr (std::is_same_v<M, DruckerPrager<float>>) {
+      const float before = F.determinant();
+      if (model.project(F)) set.J[i] *= before / F.determinant();
+    }
+    set.F[i] = F;
+    return scale;
+  }
+}
+
+template <bool kFlip>
+void scatterSet(const ParticleSet& set, const std::vector<uint32_t>& off, size_t pb,
+                const TransferParams& p, const GridLayout& layout, HaloBuffer<4>& buf,
+                HaloBuffer<4>* fbuf) {
+  const float m = set.mass;
+  for (uint32_t i = off[pb]; i < off[pb + 1]; ++i) {
+    const Stencil s = stencilAt(set.x[i], p.shifted_origin, p.inv_dx);
+    const Vec3i h = haloOffset(s, layout, pb);
+    const Mat3f& A = set.C[i];  // affine momentum times dx (computeAffine)
+    const Vec3f fx(s.fx[0], s.fx[1], s.fx[2]);
+    // Node momentum is w (m v + A (o - fx)) for stencil offset o.
+    const Vec3f mv0 = m * set.v[i] - A * fx;
+    for (int a = 0; a < 3; ++a) {
+      const Vec3f ma = mv0 + float(a) * A.col(0);
+      for (int b = 0; b < 3; ++b) {
+        const Vec3f mab = ma + float(b) * A.col(1);
+        const float wab = s.w[0][a] * s.w[1][b];
+        float* row = buf.d[HaloBuffer<4>::index(h.x() + a, h.y() + b, h.z())];
+        for (int c = 0; c < 3; ++c) {
+          const float w = wab * s.w[2][c];
+          const Vec3f mom = mab + float(c) * A.col(2);
+          row[c * 4 + 0] += w * m;
+          row[c * 4 + 1] += w * mom.x();
+          row[c * 4 + 2] += w * mom.y();
+          row[c * 4 + 3] += w * mom.z();
+          if constexpr (kFlip) {
+            float* frow = fbuf->d[HaloBuffer<4>::index(h.x() + a, h.y() + b, h.z() + c)];
+            frow[1] += w * m * set.v[i].x();
+            frow[2] += w * m * set.v[i].y();
+            frow[3] += w * m * set.v[i].z();
+          }
+        }
+      }
+    }
+  }
+}
+
+template <bool kFlip>
+void scatterAll(const std::vector<ParticleSet>& sets, const GridLayout& layout,
+                const TransferParams& p, std::vector<GridNode>& grid, std::vector<GridNode>* flip) {
+  // Colours run one after another; blocks of one colour touch disjoint nodes,
+  // so each node's sum has the same order for any thread count.
+  for (int colour = 0; colour < 8; ++colour) {
+    const std::vector<uint32_t>& blocks = layout.colour_blocks[colour];
+#pragma omp parallel
+    {
+      HaloBuffer<4> buf;
+      HaloBuffer<4> fbuf;
+#pragma omp for schedule(dynamic, 1)
+      for (int64_t k = 0; k < static_cast<int64_t>(blocks.size()); ++k) {
+        const size_t pb = blocks[k];
+        std::memset(buf.d, 0, sizeof(buf.d));
+        if constexpr (kFlip) std::memset(fbuf.d, 0, sizeof(fbuf.d));
+        for (size_t s = 0; s < sets.size(); ++s)
+          scatterSet<kFlip>(sets[s], layout.offsets[s], pb, p, layout, buf, &fbuf);
+        forHalo(layout, pb, [&](int h, size_t node) {
+          GridNode& g = grid[node];
+          g.m += buf.d[h][0];
+          g.v[0] += buf.d[h][1];
+          g.v[1] += buf.d[h][2];
+          g.v[2] += buf.d[h][3];
+          if constexpr (kFlip) {
+            GridNode& f = (*flip)[node];
+            f.v[0] += fbuf.d[h][1];
+            f.v[1] += fbuf.d[h][2];
+            f.v[2] += fbuf.d[h][3];
+          }
+        });
+      }
+    }
+  }
+}
+
+template <class M, bool kFlip>
+G2PStats gatherSet(const M& model, ParticleSet& set, size_t s, const GridLayout& layout,
+                   const TransferParams& p, const std::vector<GridNode>& grid,
+                   const std::vector<GridNode>* flip) {
+  const std::vector<uint32_t>& off = layout.offsets[s];
+  const float dt = p.dt;
+  const float c_scale = 4.0f * p.inv_dx;
+  const float flip_ratio = p.flip_ratio;
+  float max_speed2 = 0.0f;
+  float max_scale = 1.0f;
+  int all_finite = 1;
+#pragma omp parallel reduction(max : max_speed2, max_scale) reduction(min : all_finite)
+  {
+    HaloBuffer<4> buf;
+    HaloBuffer<4> fbuf;
+#pragma omp for schedule(dynamic, 1)
+    for (int64_t pb = 0; pb < static_cast<int64_t>(layout.particleBlocks()); ++pb) {
+      if (off[pb] == off[pb + 1]) continue;
+      forHalo(layout, pb, [&](int h, size_t node) {
+        std::memcpy(buf.d[h], &grid[node], sizeof(GridNode));
+        if constexpr (kFlip) std::memcpy(fbuf.d[h], &(*flip)[node], sizeof(GridNode));
+      });
+      for (uint32_t i = off[pb]; i < off[pb + 1]; ++i) {
+        const Stencil st = stencilAt(set.x[i], p.shifted_origin, p.inv_dx);
+        const Vec3i h = haloOffset(st, layout, pb);
+        Vec3f v = Vec3f::Zero();
+        Vec3f dv = Vec3f::Zero();
+        Mat3f B = Mat3f::Zero();
+        for (int a = 0; a < 3; ++a)
+          for (int b = 0; b < 3; ++b)
+            for (int c = 0; c < 3; ++c) {
+              const float w = st.w[0][a] * st.w[1][b] * st.w[2][c];
+              const int hi = HaloBuffer<4>::index(h.x() + a, h.y() + b, h.z() + c);
+              const Vec3f vi(buf.d[hi][1], buf.d[hi][2], buf.d[hi][3]);
+              const Vec3f o(float(a) - st.fx[0], float(b) - st.fx[1], float(c) - st.fx[2]);
+              v += w * vi;
+              B += (w * vi) * o.transpose();
+              if constexpr (kFlip) dv += w * Vec3f(fbuf.d[hi][1], fbuf.d[hi][2], fbuf.d[hi][3]);
+            }
+        set.C[i] = c_scale * B;
+        set.x[i] = (set.x[i] + dt * v).cwiseMax(p.domain_lo).cwiseMin(p.domain_hi);
+        if constexpr (kFlip) {
+          set.v[i] = flip_ratio * (set.v[i] + dv) + (1.0f - flip_ratio) * v;
+        } else {
+          set.v[i] = v;
+        }
+        max_scale = std::max(max_scale, updateDeformation(model, set, i, dt));
+        max_speed2 = std::max(max_speed2, set.v[i].squaredNorm());
+        if (!std::isfinite(max_speed2 + set.x[i].sum() + set.C[i].sum())) all_finite = 0;
+      }
+    }
+  }
+  // A NaN never wins a max reduction, so report non-finite separately.
+  return {std::sqrt(max_speed2), max_scale, all_finite != 0};
+}
+
+}  // namespace
+
+void computeAffine(std::vector<ParticleSet>& sets, const TransferParams& p) {
+  const bool apic = p.scheme == TransferScheme::Apic;
+  for (ParticleSet& set : sets) {
+    const float stress_scale = p.dt * set.volume * 4.0f * p.inv_dx * p.inv_dx * p.dx;
+    const float momentum_scale = apic ? set.mass * p.dx : 0.0f;
+    std::visit(
+        [&](const auto& model) {
+#pragma omp parallel for schedule(static)
+          for (int64_t i = 0; i < static_cast<int64_t>(set.size()); ++i)
+            set.C[i] = momentum_scale * set.C[i] - stress_scale * kirchhoffOf(model, set, i);
+        },
+        set.model);
+  }
+}
+
+void particlesToGrid(const std::vector<ParticleSet>& sets, const GridLayout& layout,
+                     const TransferParams& p, std::vector<GridNode>& grid,
+                     std::vector<GridNode>* flip) {
+  const size_t nodes = layout.gridBlocks() * kBlockNodes;
+  grid.assign(nodes, GridNode{0, {0, 0, 0}});
+  if (flip) {
+    flip->assign(nodes, GridNode{0, {0, 0, 0}});
+    scatterAll<true>(sets, layout, p, grid, flip);
+  } else {
+    scatterAll<false>(sets, layout, p, grid, nullptr);
+  }
+}
+
+G2PStats gridToParticles(std::vector<ParticleSet>& sets, const GridLayout& layout,
+                         const TransferParams& p, const std::vector<GridNode>& grid,
+                         const std::vector<GridNode>* flip) {
+  G2PStats total;
+  for (size_t s = 0; s < sets.size(); ++s) {
+    ParticleSet& set = sets[s];
+    const G2PStats st = std::visit(
+        [&](const auto& model) {
+          return flip ? gatherSet<std::decay_t<decltype(model)>, true>(model, set, s, layout, p,
+                                                                       grid, flip)
+                      : gatherSet<std::decay_t<decltype(model)>, false>(model, set, s, layout, p,
+                                                                        grid, nullptr);
+        },
+        set.model);
+    total.max_speed = std::max(total.max_speed, st.max_speed);
+    total.max_stiffness_scale = std::max(total.max_stiffness_scale, st.max_stiffness_scale);
+    total.finite = total.finite && st.finite;
+  }
+  return total;
+}
+
+}  // namespace triad

@@ -1,0 +1,73 @@
+#pragma once
+// Particle-grid transfers of MLS-MPM (Hu et al. 2018) with APIC, PIC or
+// PIC/FLIP blends (Jiang et al. 2015), on the blocked sparse grid.
+#include <vector>
+
+#include "sim/math.h"
+#include "sim/scene_desc.h"
+#include "sim/sparse_grid.h"
+
+namespace triad {
+
+struct ParticleSet;
+
+struct TransferParams {
+  Vec3f shifted_origin;  // world position of node 0 plus dx/2 (see shiftedCoord)
+  float dx = 0.0f;
+  float inv_dx = 0.0f;  // 1/dx, the same value the binner used
+  float dt = 0.0f;
+  TransferScheme scheme = TransferScheme::Apic;
+  float flip_ratio = 0.95f;
+  // The domain box: the walls keep material inside, and positions are clamped
+  // to it so that no particle can tunnel out in one step at extreme speed.
+  Vec3f domain_lo, domain_hi;
+};
+
+// Per-set facts that G2P gathers for the next step's time step.
+struct G2PStats {
+  float max_speed = 0.0f;            // largest particle speed, m/s
+  float max_stiffness_scale = 1.0f;  // snow hardening factor, 1 elsewhere
+  bool finite = true;                // every particle's state finite
+};
+
+// Stress pass: replace each particle's C by its affine momentum
+// (m C for APIC, nothing for PIC/FLIP) minus the MLS stress impulse
+// dt V0 (4/dx^2) tau, pre-multiplied by dx. The material variant is visited
+// once per set.
+void computeAffine(std::vector<ParticleSet>& sets, const TransferParams& p);
+
+// Scatter mass and momentum into `grid` (sized layout.gridBlocks() * 64).
+// With FLIP, `flip` receives the momentum without the stress impulse.
+void particlesToGrid(const std::vector<ParticleSet>& sets, const GridLayout& layout,
+                     const TransferParams& p, std::vector<GridNode>& grid,
+                     std::vector<GridNode>* flip);
+
+// Gather velocities (and, with FLIP, velocity changes) back to particles,
+// advect them, and update deformation and plasticity per material.
+G2PStats gridToParticles(std::vector<ParticleSet>& sets, const GridLayout& layout,
+                         const TransferParams& p, const std::vector<GridNode>& grid,
+                         const std::vector<GridNode>* flip);
+
+// Quadratic B-spline stencil of a particle: base node and per-axis weights.
+struct Stencil {
+  Vec3i base;
+  float fx[3];    // position relative to base, in cells, in [0.5, 1.5)
+  float w[3][3];  // w[axis][offset]
+};
+
+inline Stencil stencilAt(const Vec3f& x, const Vec3f& shifted_origin, float inv_dx) {
+  Stencil s;
+  for (int d = 0; d < 3; ++d) {
+    const float t = shiftedCoord(x[d], shifted_origin[d], inv_dx);
+    const float b = std::floor(t);
+    const float f = t - b + 0.5f;
+    s.base[d] = static_cast<int>(b);
+    s.fx[d] = f;
+    s.w[d][0] = 0.5f * (1.5f - f) * (1.5f - f);
+    s.w[d][1] = 0.75f - (f - 1.0f) * (f - 1.0f);
+    s.w[d][2] = 0.5f * (f - 0.5f) * (f - 0.5f);
+  }
+  return s;
+}
+
+}  // namespace triad

@@ -1,0 +1,97 @@
+#include "sim/world.h"
+
+#include <cmath>
+#include <limits>
+#include <map>
+
+#include "sim/errors.h"
+#include "sim/sampling.h"
+
+namespace triad {
+
+namespace {
+
+std::string objectKey(const SceneDesc& scene, size_t i) {
+  return scene.source_path + ": objects[" + std::to_string(i) + "]";
+}
+
+const char* kindName(ObjectKind k) {
+  switch (k) {
+    case ObjectKind::Mpm: return "mpm";
+    case ObjectKind::Rigid: return "rigid";
+    case ObjectKind::Elastic: return "elastic";
+  }
+  return "?";
+}
+
+}  // namespace
+
+size_t World::particleCount() const {
+  size_t n = 0;
+  for (const ParticleSet& s : sets) n += s.size();
+  return n;
+}
+
+size_t World::particleBytes() const {
+  size_t n = 0;
+  for (const ParticleSet& s : sets) n += s.bytes();
+  return n;
+}
+
+World buildWorld(const SceneDesc& scene) {
+  World world;
+  world.scene = scene;
+  world.object_particles.assign(scene.objects.size(), 0);
+  const DomainDesc& domain = scene.domain;
+  // Block keys hold 21 bits per axis: about four million cells.
+  for (int d = 0; d < 3; ++d) {
+    if ((domain.max[d] - domain.min[d]) / domain.dx > double(1 << 22))
+      throw InputError(scene.source_path + ": domain.dx",
+                       "the domain spans more than 4194304 cells along an axis");
+  }
+  if (scene.objects.size() > std::numeric_limits<uint16_t>::max())
+    throw InputError(scene.source_path + ": objects", "at most 65535 objects are supported");
+
+  const int ppc = scene.solver.particles_per_cell;
+  const double volume = std::pow(domain.dx, 3) / ppc;
+  std::map<int, size_t> set_of_material;
+  uint32_t next_id = 0;
+  for (size_t i = 0; i < scene.objects.size(); ++i) {
+    const ObjectDesc& obj = scene.objects[i];
+    if (obj.kind != ObjectKind::Mpm)
+      throw InputError(objectKey(scene, i) + ".kind",
+                       std::string("'") + kindName(obj.kind) +
+                           "' objects are not implemented yet; only 'mpm' objects can be simulated");
+    std::vector<Vec3f> points;
+    try {
+      points = sampleShape(obj.shape, domain, ppc);
+    } catch (const InputError& e) {
+      throw InputError(objectKey(scene, i) + ".shape", e.what());
+    }
+    if (points.empty())
+      throw InputError(objectKey(scene, i) + ".shape",
+                       "the shape holds no particle inside the domain at this dx and "
+                       "particles_per_cell");
+    if (double(next_id) + double(points.size()) > double(std::numeric_limits<uint32_t>::max()))
+      throw InputError(objectKey(scene, i), "more than 2^32 particles");
+
+    // One set per material: the material is visited once per set.
+    auto [it, inserted] = set_of_material.try_emplace(obj.material, world.sets.size());
+    if (inserted) {
+      const MaterialDesc& m = scene.materials[obj.material];
+      ParticleSet set;
+      set.material = obj.material;
+      set.model = makeMaterial(m);
+      set.volume = static_cast<float>(volume);
+      set.mass = static_cast<float>(volume * m.density);
+      world.sets.push_back(std::move(set));
+    }
+    ParticleSet& set = world.sets[it->second];
+    const Vec3f vel(float(obj.velocity[0]), float(obj.velocity[1]), float(obj.velocity[2]));
+    for (const Vec3f& p : points) set.push(p, vel, next_id++, static_cast<uint16_t>(i));
+    world.object_particles[i] = points.size();
+  }
+  return world;
+}
+
+}  // namespace triad

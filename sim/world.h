@@ -1,0 +1,27 @@
+#pragma once
+// The runtime state of a simulation, built from a SceneDesc in one place.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "sim/particles.h"
+#include "sim/scene_desc.h"
+
+namespace triad {
+
+struct World {
+  SceneDesc scene;
+  std::vector<ParticleSet> sets;            // one per material (MPM objects)
+  std::vector<size_t> object_particles;     // particle count per scene object
+  double time = 0.0;                        // simulated time, s
+  int64_t steps = 0;                        // substeps taken
+
+  size_t particleCount() const;
+  size_t particleBytes() const;
+};
+
+// Sample every object and group particles by material. Throws InputError
+// (naming the object's key path) for what the scene asks but cannot be built.
+World buildWorld(const SceneDesc& scene);
+
+}  // namespace triad
