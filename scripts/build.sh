@@ -1,0 +1,20 @@
+#!/usr/bin/env bash
+# Configures and builds Triad. Usage: scripts/build.sh [release|sanitize] [targets...]
+#   release  (default) optimised build in build/
+#   sanitize ASan + UBSan build in build-sanitize/
+set -euo pipefail
+cd "$(dirname "$0")/.."
+kind=${1:-release}
+shift || true
+case "$kind" in
+  release) dir=build; flags=(-DCMAKE_BUILD_TYPE=Release) ;;
+  sanitize) dir=build-sanitize; flags=(-DCMAKE_BUILD_TYPE=RelWithDebInfo -DTRIAD_SANITIZE=ON) ;;
+  *) echo "usage: $0 [release|sanitize] [targets...]" >&2; exit 2 ;;
+esac
+cmake -S . -B "$dir" -G Ninja "${flags[@]}" >/dev/null
+jobs=$(nproc)
+if [ $# -gt 0 ]; then
+  cmake --build "$dir" -j "$jobs" --target "$@"
+else
+  cmake --build "$dir" -j "$jobs"
+fi
