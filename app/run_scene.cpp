@@ -3,6 +3,7 @@
 #include <omp.h>
 
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <iostream>
 
@@ -84,6 +85,8 @@ int runScene(const RunOptions& options) {
   rec.frames_requested = scene.frames.count;
 
   Solver solver(world);
+  // Testing aid (tests/test_cli.cpp): force a blow-up at a given substep.
+  if (const char* fault = std::getenv("TRIAD_FAULT_STEP")) solver.injectFaultAtStep(std::atoll(fault));
   double output_seconds = 0.0;
   auto record = [&](bool finished, const std::string& error) {
     const PhaseTimes& t = solver.phaseTimes();

@@ -15,7 +15,9 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-std::string inQuotes(const std::string& s) { return "\"" + s + "\""; }
+std::string inQuotes(const std::string& s) {
+  return "\"" + s + "\"";
+}
 
 std::string joinQuoted(const std::vector<std::string>& items) {
   std::string out;
@@ -46,13 +48,19 @@ std::size_t editDistance(const std::string& a, const std::string& b) {
 std::optional<std::string> closestMatch(const std::string& word,
                                         const std::vector<std::string>& candidates) {
   // Allow about one edit in three characters: enough for a slip of the
-  // finger, not so much that unrelated keys are offered as fixes.
+  // finger, not so much that unrelated keys are offered as fixes. A word
+  // that is a clipped form of a candidate ("fov" for "fov_deg") is a match
+  // too, however many characters were left off.
   const std::size_t limit = word.size() <= 3 ? 1 : std::max<std::size_t>(2, word.size() / 3);
   std::optional<std::string> best;
-  std::size_t best_distance = limit + 1;
+  std::size_t best_distance = std::numeric_limits<std::size_t>::max();
   for (const std::string& c : candidates) {
     const std::size_t d = editDistance(word, c);
-    if (d < best_distance && d < std::max(word.size(), c.size())) {
+    const std::string& shorter = word.size() < c.size() ? word : c;
+    const std::string& longer = word.size() < c.size() ? c : word;
+    const bool clipped = shorter.size() >= 3 && longer.compare(0, shorter.size(), shorter) == 0;
+    const bool close = d <= limit && d < std::max(word.size(), c.size());
+    if ((close || clipped) && d < best_distance) {
       best = c;
       best_distance = d;
     }
@@ -79,13 +87,14 @@ std::string describeValue(const nlohmann::json& v) {
     case nlohmann::json::value_t::string: {
       const auto& s = v.get_ref<const std::string&>();
       if (s.empty()) return "an empty string";
-      return "a string (" + (s.size() <= kMaxShown ? inQuotes(s) : inQuotes(s.substr(0, kMaxShown)) + "...") + ")";
+      return "a string (" +
+             (s.size() <= kMaxShown ? inQuotes(s) : inQuotes(s.substr(0, kMaxShown)) + "...") + ")";
     }
     case nlohmann::json::value_t::array: {
       if (v.empty()) return "an empty array";
       const std::string dump = v.dump();
-      std::string out = "an array of " + std::to_string(v.size()) +
-                        (v.size() == 1 ? " element" : " elements");
+      std::string out =
+          "an array of " + std::to_string(v.size()) + (v.size() == 1 ? " element" : " elements");
       if (dump.size() <= kMaxShown) out += " (" + dump + ")";
       return out;
     }
@@ -98,14 +107,30 @@ std::string describeValue(const nlohmann::json& v) {
 
 // Range
 
-Range Range::any() { return Range(-kInf, true, kInf, true); }
-Range Range::positive() { return Range(0, true, kInf, true); }
-Range Range::nonNegative() { return Range(0, false, kInf, true); }
-Range Range::atLeast(double lo) { return Range(lo, false, kInf, true); }
-Range Range::closed(double lo, double hi) { return Range(lo, false, hi, false); }
-Range Range::open(double lo, double hi) { return Range(lo, true, hi, true); }
-Range Range::closedOpen(double lo, double hi) { return Range(lo, false, hi, true); }
-Range Range::openClosed(double lo, double hi) { return Range(lo, true, hi, false); }
+Range Range::any() {
+  return Range(-kInf, true, kInf, true);
+}
+Range Range::positive() {
+  return Range(0, true, kInf, true);
+}
+Range Range::nonNegative() {
+  return Range(0, false, kInf, true);
+}
+Range Range::atLeast(double lo) {
+  return Range(lo, false, kInf, true);
+}
+Range Range::closed(double lo, double hi) {
+  return Range(lo, false, hi, false);
+}
+Range Range::open(double lo, double hi) {
+  return Range(lo, true, hi, true);
+}
+Range Range::closedOpen(double lo, double hi) {
+  return Range(lo, false, hi, true);
+}
+Range Range::openClosed(double lo, double hi) {
+  return Range(lo, true, hi, false);
+}
 
 bool Range::contains(double v) const {
   const bool above = lo_open_ ? v > lo_ : v >= lo_;
@@ -152,7 +177,9 @@ void ParamDict::fail(const std::string& key, const std::string& what) const {
   throw InputError(where(key), what);
 }
 
-bool ParamDict::has(const std::string& key) const { return find(key) != nullptr; }
+bool ParamDict::has(const std::string& key) const {
+  return find(key) != nullptr;
+}
 
 const nlohmann::json* ParamDict::find(const std::string& key) const {
   known_->insert(key);
@@ -163,13 +190,13 @@ const nlohmann::json* ParamDict::find(const std::string& key) const {
 const nlohmann::json& ParamDict::requireValue(const std::string& key,
                                               const std::string& expected) const {
   if (const nlohmann::json* v = find(key)) return *v;
-  std::string what = "missing required key; " + expected;
-  // A missing required key is most often a misspelt one: point at it.
-  std::vector<std::string> others = unknownKeys();
-  if (auto typo = closestMatch(key, others)) {
-    what += " (is " + inQuotes(*typo) + " a misspelling of " + inQuotes(key) + "?)";
+  // A missing required key is most often a misspelt one: report the key as
+  // written, where the user has to make the fix.
+  if (auto typo = closestMatch(key, unknownKeys())) {
+    fail(*typo, "unknown key " + inQuotes(*typo) + "; did you mean " + inQuotes(key) +
+                    "? (a required key: " + expected + ")");
   }
-  fail(key, what);
+  fail(key, "missing required key; " + expected);
 }
 
 std::string ParamDict::listChoices(const std::vector<std::string>& names) {
@@ -337,8 +364,7 @@ std::optional<ParamDict> ParamDict::getDict(const std::string& key) const {
   return ParamDict(*v, file_, keyPath(key));
 }
 
-std::vector<ParamDict> ParamDict::requireDictArray(const std::string& key,
-                                                   bool allow_empty) const {
+std::vector<ParamDict> ParamDict::requireDictArray(const std::string& key, bool allow_empty) const {
   const std::string expected =
       allow_empty ? "expected an array of objects" : "expected a non-empty array of objects";
   return toDictArray(key, requireValue(key, expected), allow_empty);

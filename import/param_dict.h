@@ -39,13 +39,13 @@ std::string describeValue(const nlohmann::json& v);
 class Range {
  public:
   static Range any();
-  static Range positive();                           // (0, inf)
-  static Range nonNegative();                        // [0, inf)
-  static Range atLeast(double lo);                   // [lo, inf)
-  static Range closed(double lo, double hi);         // [lo, hi]
-  static Range open(double lo, double hi);           // (lo, hi)
-  static Range closedOpen(double lo, double hi);     // [lo, hi)
-  static Range openClosed(double lo, double hi);     // (lo, hi]
+  static Range positive();                        // (0, inf)
+  static Range nonNegative();                     // [0, inf)
+  static Range atLeast(double lo);                // [lo, inf)
+  static Range closed(double lo, double hi);      // [lo, hi]
+  static Range open(double lo, double hi);        // (lo, hi)
+  static Range closedOpen(double lo, double hi);  // [lo, hi)
+  static Range openClosed(double lo, double hi);  // (lo, hi]
 
   bool contains(double v) const;
   // `noun` is "number" or "integer"; the article is chosen to fit.
@@ -154,8 +154,9 @@ class ParamDict {
   }
   static std::string listChoices(const std::vector<std::string>& names);
 
-  // The value of a required key; throws "missing required key" (with
-  // `expected` and any present key that looks like a misspelling of it).
+  // The value of a required key. When it is absent, throws for a present,
+  // unread key that looks like a misspelling of it, or else for the missing
+  // key; `expected` says what the key takes.
   const nlohmann::json& requireValue(const std::string& key, const std::string& expected) const;
   std::size_t choiceIndex(const std::string& key, const nlohmann::json& v,
                           const std::vector<std::string>& names) const;

@@ -23,8 +23,7 @@ void applyWall(Vec3f& v, const Vec3f& n, BoundaryType type, float friction);
 // Turn momenta into velocities, add gravity and apply the walls. With FLIP,
 // `flip` holds each node's transfer momentum on entry and its velocity change
 // over the step on exit.
-void updateGrid(const GridLayout& layout, std::vector<GridNode>& grid,
-                std::vector<GridNode>* flip, const Vec3f& gravity, float dt,
-                const WallConditions& walls);
+void updateGrid(const GridLayout& layout, std::vector<GridNode>& grid, std::vector<GridNode>* flip,
+                const Vec3f& gravity, float dt, const WallConditions& walls);
 
 }  // namespace triad

@@ -21,10 +21,10 @@ struct ParticleSet {
   // APIC affine velocity matrix. Between the stress pass and P2G of one step
   // it holds the combined affine momentum instead (see transfer.cpp).
   std::vector<Mat3f> C;
-  std::vector<Mat3f> F;         // (elastic) deformation gradient; empty for water
-  std::vector<float> J;         // water: volume ratio; snow and sand: plastic volume ratio
-  std::vector<uint32_t> id;     // stable particle id across frames
-  std::vector<uint16_t> object; // index into SceneDesc::objects
+  std::vector<Mat3f> F;          // (elastic) deformation gradient; empty for water
+  std::vector<float> J;          // water: volume ratio; snow and sand: plastic volume ratio
+  std::vector<uint32_t> id;      // stable particle id across frames
+  std::vector<uint16_t> object;  // index into SceneDesc::objects
 
   size_t size() const { return x.size(); }
   bool usesF() const;

@@ -37,8 +37,8 @@ struct DomainDesc {
 };
 
 struct SolverDesc {
-  double cfl = 0.4;        // fraction of a cell travelled (by material or waves) per step
-  double max_dt = 1e-3;    // upper bound on the step, seconds
+  double cfl = 0.4;      // fraction of a cell travelled (by material or waves) per step
+  double max_dt = 1e-3;  // upper bound on the step, seconds
   int particles_per_cell = 8;
   TransferScheme transfer = TransferScheme::Apic;
   double flip_ratio = 0.95;  // FLIP share of the PIC/FLIP blend (transfer "flip")

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 #include "sim/errors.h"
@@ -129,8 +130,12 @@ void Solver::updateGrid(float dt) {
 void Solver::gridToParticles(float dt) {
   PhaseTimer timer(times_.g2p);
   params_.dt = dt;
-  const G2PStats st =
+  G2PStats st =
       triad::gridToParticles(world_.sets, layout_, params_, grid_, flip_ ? &flip_grid_ : nullptr);
+  if (world_.steps + 1 == fault_step_ && !world_.sets.empty() && world_.sets[0].size() > 0) {
+    world_.sets[0].v[0].x() = std::numeric_limits<float>::quiet_NaN();
+    st.finite = false;
+  }
   if (!st.finite) reportNonFinite();
   max_speed_ = st.max_speed;
   max_stiffness_scale_ = st.max_stiffness_scale;

@@ -39,6 +39,10 @@ class Solver {
   // remains). `on_step` is called after every substep.
   void advanceTo(double t, const std::function<void(double dt)>& on_step = {});
 
+  // Testing aid: make one particle's velocity NaN during substep `step`
+  // (counted from the start of the world), to exercise the failure path.
+  void injectFaultAtStep(int64_t step) { fault_step_ = step; }
+
   const PhaseTimes& phaseTimes() const { return times_; }
   const StepRecord& record() const { return record_; }
   // Bytes held by grids and binning buffers (capacity).
@@ -58,6 +62,7 @@ class Solver {
   Vec3f gravity_;
   std::vector<float> wave_speed_;  // per set, at rest
   bool flip_ = false;
+  int64_t fault_step_ = -1;
 
   Binner binner_;
   GridLayout layout_;

@@ -18,7 +18,7 @@ namespace triad {
 struct ParticleSet;
 
 constexpr int kBlockBits = 2;
-constexpr int kBlockSize = 1 << kBlockBits;                       // nodes per block side
+constexpr int kBlockSize = 1 << kBlockBits;                        // nodes per block side
 constexpr int kBlockNodes = kBlockSize * kBlockSize * kBlockSize;  // 64
 constexpr int kHalo = kBlockSize + 2;  // nodes a particle block touches per side (quadratic)
 constexpr int kHaloNodes = kHalo * kHalo * kHalo;
@@ -36,7 +36,9 @@ uint64_t packBlock(const Vec3i& b);
 Vec3i unpackBlock(uint64_t key);
 
 // Floor division of node indices into block coordinates.
-inline int blockOf(int node) { return node >> kBlockBits; }
+inline int blockOf(int node) {
+  return node >> kBlockBits;
+}
 
 // Which particles of which set fall in which block, and the grid blocks their
 // stencils reach. Rebuilt every step by bin().

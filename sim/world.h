@@ -11,10 +11,10 @@ namespace triad {
 
 struct World {
   SceneDesc scene;
-  std::vector<ParticleSet> sets;            // one per material (MPM objects)
-  std::vector<size_t> object_particles;     // particle count per scene object
-  double time = 0.0;                        // simulated time, s
-  int64_t steps = 0;                        // substeps taken
+  std::vector<ParticleSet> sets;         // one per material (MPM objects)
+  std::vector<size_t> object_particles;  // particle count per scene object
+  double time = 0.0;                     // simulated time, s
+  int64_t steps = 0;                     // substeps taken
 
   size_t particleCount() const;
   size_t particleBytes() const;

@@ -1,0 +1,599 @@
+#include "import/scene_loader.h"
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <iterator>
+#include <map>
+#include <optional>
+#include <set>
+
+#include <nlohmann/json.hpp>
+
+#include "import/param_dict.h"
+#include "sim/errors.h"
+
+namespace triad {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// The sparse grid packs block coordinates into 21 bits per axis, and the
+// particle cache stores object ids in 16 bits (World::build checks both
+// again); rejecting a domain or a scene too large for them here also turns
+// an accidental dx of 1e-9 into an input error rather than a late failure.
+constexpr double kMaxCellsPerAxis = 1 << 22;
+constexpr std::size_t kMaxObjects = 65535;
+constexpr int kMinCellsPerAxis = 4;
+
+const ParamDict::Choices<BoundaryType> kBoundaryTypes = {{"slip", BoundaryType::Slip},
+                                                         {"sticky", BoundaryType::Sticky},
+                                                         {"separate", BoundaryType::Separate}};
+const ParamDict::Choices<TransferScheme> kTransfers = {
+    {"apic", TransferScheme::Apic}, {"pic", TransferScheme::Pic}, {"flip", TransferScheme::Flip}};
+const ParamDict::Choices<CouplingScheme> kCouplings = {{"three_grid", CouplingScheme::ThreeGrid},
+                                                       {"single_grid", CouplingScheme::SingleGrid}};
+const ParamDict::Choices<MaterialModel> kModels = {
+    {"fixed_corotated", MaterialModel::FixedCorotated},
+    {"neo_hookean", MaterialModel::NeoHookean},
+    {"snow", MaterialModel::Snow},
+    {"drucker_prager", MaterialModel::DruckerPrager},
+    {"water", MaterialModel::Water}};
+const ParamDict::Choices<ObjectKind> kKinds = {
+    {"mpm", ObjectKind::Mpm}, {"rigid", ObjectKind::Rigid}, {"elastic", ObjectKind::Elastic}};
+
+template <class E>
+std::string nameOf(const ParamDict::Choices<E>& choices, E value) {
+  for (const auto& c : choices) {
+    if (c.second == value) return c.first;
+  }
+  return "?";
+}
+
+std::string inQuotes(const std::string& s) {
+  return "\"" + s + "\"";
+}
+
+std::string vecString(const Vec3Desc& v) {
+  return "[" + formatNumber(v[0]) + ", " + formatNumber(v[1]) + ", " + formatNumber(v[2]) + "]";
+}
+
+// Names become file and directory names (out/<name>, bodies/<name>.FFFF.ply),
+// so they are kept to characters that are safe on every file system.
+bool isSafeName(const std::string& s) {
+  if (s.empty() || s == "." || s == "..") return false;
+  return std::all_of(s.begin(), s.end(), [](char c) {
+    return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_' ||
+           c == '.' || c == '-';
+  });
+}
+
+std::string requireSafeName(const ParamDict& d, const std::string& key) {
+  const std::string name = d.requireString(key);
+  if (!isSafeName(name)) {
+    d.fail(key,
+           "expected a name of the characters A-Z a-z 0-9 _ . - (it names output files), got " +
+               inQuotes(name));
+  }
+  return name;
+}
+
+// Relative paths in a scene are relative to the scene file's directory.
+std::string resolveRelative(const std::string& scene_dir, const std::string& p) {
+  const fs::path path(p);
+  if (path.is_absolute() || scene_dir.empty()) return path.lexically_normal().string();
+  return (fs::path(scene_dir) / path).lexically_normal().string();
+}
+
+// Check that every component of `max` exceeds that of `min` (both read from d).
+void requireOrdered(const ParamDict& d, const Vec3Desc& min, const Vec3Desc& max) {
+  for (int a = 0; a < 3; ++a) {
+    if (!(max[a] > min[a])) {
+      d.fail("max", "expected every component greater than min's " + vecString(min) + ", got " +
+                        vecString(max));
+    }
+  }
+}
+
+// Sections
+
+FramesDesc parseFrames(const ParamDict& root) {
+  FramesDesc out;
+  if (auto f = root.getDict("frames")) {
+    out.count = f->getInt("count", out.count, Range::nonNegative());
+    out.fps = f->getDouble("fps", out.fps, Range::positive());
+    f->checkUnknownKeys();
+  }
+  return out;
+}
+
+DomainDesc parseDomain(const ParamDict& root) {
+  const ParamDict d = root.requireDict("domain");
+  DomainDesc out;
+  out.min = d.requireVec3("min");
+  out.max = d.requireVec3("max");
+  requireOrdered(d, out.min, out.max);
+  out.dx = d.requireDouble("dx", Range::positive());
+
+  // Check the grid resolution the spacing implies
+  const char* axes = "xyz";
+  for (int a = 0; a < 3; ++a) {
+    const double extent = out.max[a] - out.min[a];
+    const double cells = extent / out.dx;
+    if (cells < kMinCellsPerAxis * (1 - 1e-9)) {
+      d.fail("dx", "expected at most " + formatNumber(extent / kMinCellsPerAxis) +
+                       " so that the domain spans at least 4 cells along " + axes[a] + ", got " +
+                       formatNumber(out.dx) + " (" + formatNumber(cells) + " cells)");
+    }
+    if (cells > kMaxCellsPerAxis) {
+      d.fail("dx", "expected at least " + formatNumber(extent / kMaxCellsPerAxis) +
+                       " so that the domain spans at most " + formatNumber(kMaxCellsPerAxis) +
+                       " cells along " + axes[a] + ", got " + formatNumber(out.dx));
+    }
+  }
+
+  if (auto b = d.getDict("boundary")) {
+    out.boundary.type = b->getEnum("type", out.boundary.type, kBoundaryTypes);
+    out.boundary.friction = b->getDouble("friction", out.boundary.friction, Range::nonNegative());
+    b->checkUnknownKeys();
+  }
+  d.checkUnknownKeys();
+  return out;
+}
+
+SolverDesc parseSolver(const ParamDict& root) {
+  SolverDesc out;
+  auto s = root.getDict("solver");
+  if (!s) return out;
+  out.cfl = s->getDouble("cfl", out.cfl, Range::openClosed(0, 1));
+  out.max_dt = s->getDouble("max_dt", out.max_dt, Range::positive());
+  out.particles_per_cell =
+      s->getInt("particles_per_cell", out.particles_per_cell, Range::closed(1, 64));
+  out.transfer = s->getEnum("transfer", out.transfer, kTransfers);
+  // A blend ratio under another scheme would be silently ignored: reject it.
+  if (out.transfer == TransferScheme::Flip) {
+    out.flip_ratio = s->getDouble("flip_ratio", out.flip_ratio, Range::closed(0, 1));
+  }
+  out.coupling = s->getEnum("coupling", out.coupling, kCouplings);
+  s->checkUnknownKeys({}, [&](const std::string& key) -> std::string {
+    if (key != "flip_ratio") return {};
+    return "it applies only when transfer is \"flip\", and transfer is " +
+           inQuotes(nameOf(kTransfers, out.transfer));
+  });
+  return out;
+}
+
+// Which models take a parameter, for the message when another model is given it.
+std::string materialKeyHint(const std::string& key) {
+  std::string owner;
+  if (key == "youngs_modulus" || key == "poisson_ratio") {
+    owner = "fixed_corotated, neo_hookean, snow and drucker_prager";
+  } else if (key == "critical_compression" || key == "critical_stretch" || key == "hardening") {
+    owner = "snow";
+  } else if (key == "friction_angle_deg" || key == "cohesion") {
+    owner = "drucker_prager";
+  } else if (key == "bulk_modulus" || key == "viscosity" || key == "gamma") {
+    owner = "water";
+  }
+  return owner.empty() ? owner : "a parameter of " + owner + " only";
+}
+
+MaterialDesc parseMaterial(const std::string& name, const ParamDict& d) {
+  MaterialDesc m;
+  m.name = name;
+  m.model = d.requireEnum("model", kModels);
+  m.density = d.requireDouble("density", Range::positive());
+  if (m.model == MaterialModel::Water) {
+    m.bulk_modulus = d.requireDouble("bulk_modulus", Range::positive());
+    m.viscosity = d.getDouble("viscosity", m.viscosity, Range::nonNegative());
+    m.gamma = d.getDouble("gamma", m.gamma, Range::atLeast(1));
+  } else {
+    // Every solid model is elastic underneath; the plastic ones add a yield rule.
+    m.youngs_modulus = d.requireDouble("youngs_modulus", Range::positive());
+    m.poisson_ratio = d.requireDouble("poisson_ratio", Range::closedOpen(0, 0.5));
+  }
+  if (m.model == MaterialModel::Snow) {
+    m.critical_compression =
+        d.getDouble("critical_compression", m.critical_compression, Range::open(0, 1));
+    m.critical_stretch = d.getDouble("critical_stretch", m.critical_stretch, Range::positive());
+    m.hardening = d.getDouble("hardening", m.hardening, Range::nonNegative());
+  }
+  if (m.model == MaterialModel::DruckerPrager) {
+    m.friction_angle_deg =
+        d.getDouble("friction_angle_deg", m.friction_angle_deg, Range::closedOpen(0, 90));
+    m.cohesion = d.getDouble("cohesion", m.cohesion, Range::nonNegative());
+  }
+  d.checkUnknownKeys("for model " + inQuotes(nameOf(kModels, m.model)), materialKeyHint);
+  return m;
+}
+
+// Shapes
+
+ShapeDesc parseShape(const ParamDict& s, const std::string& scene_dir) {
+  const bool box = s.has("box"), sphere = s.has("sphere"), mesh = s.has("mesh");
+  s.checkUnknownKeys("in a shape");
+  if (box + sphere + mesh != 1) {
+    std::string got = box + sphere + mesh == 0 ? "none" : "";
+    for (const char* k : {"box", "sphere", "mesh"}) {
+      if (!s.has(k)) continue;
+      got += (got.empty() ? "" : " and ") + inQuotes(k);
+    }
+    s.fail({}, "expected exactly one of \"box\", \"sphere\" or \"mesh\", got " + got);
+  }
+
+  if (box) {
+    const ParamDict b = s.requireDict("box");
+    BoxDesc out;
+    out.min = b.requireVec3("min");
+    out.max = b.requireVec3("max");
+    requireOrdered(b, out.min, out.max);
+    b.checkUnknownKeys("in a box");
+    return out;
+  }
+  if (sphere) {
+    const ParamDict b = s.requireDict("sphere");
+    SphereDesc out;
+    out.center = b.requireVec3("center");
+    out.radius = b.requireDouble("radius", Range::positive());
+    b.checkUnknownKeys("in a sphere");
+    return out;
+  }
+
+  const ParamDict m = s.requireDict("mesh");
+  MeshDesc out;
+  out.path = m.requireString("path");
+  out.resolved_path = resolveRelative(scene_dir, out.path);
+  out.scale = m.getDouble("scale", out.scale, Range::positive());
+  out.translate = m.getVec3("translate", out.translate);
+  out.rotate_deg = m.getVec3("rotate_deg", out.rotate_deg);
+  m.checkUnknownKeys("in a mesh");
+  std::error_code ec;
+  const fs::file_status st = fs::status(out.resolved_path, ec);
+  if (!fs::exists(st)) {
+    m.fail("path", "expected an existing mesh file, but " + inQuotes(out.resolved_path) +
+                       " does not exist (paths are relative to the scene file)");
+  }
+  if (!fs::is_regular_file(st)) {
+    m.fail("path", "expected a mesh file, but " + inQuotes(out.resolved_path) + " is not a file");
+  }
+  return out;
+}
+
+// Whether a shape has volume inside the domain. Meshes are not loaded here,
+// so their extent is unknown: the mesh importer checks them.
+bool overlapsDomain(const ShapeDesc& shape, const DomainDesc& d) {
+  if (const auto* b = std::get_if<BoxDesc>(&shape)) {
+    for (int a = 0; a < 3; ++a) {
+      if (!(b->max[a] > d.min[a] && b->min[a] < d.max[a])) return false;
+    }
+    return true;
+  }
+  if (const auto* s = std::get_if<SphereDesc>(&shape)) {
+    double dist2 = 0;
+    for (int a = 0; a < 3; ++a) {
+      const double c = std::clamp(s->center[a], d.min[a], d.max[a]);
+      dist2 += (s->center[a] - c) * (s->center[a] - c);
+    }
+    return dist2 < s->radius * s->radius;
+  }
+  return true;
+}
+
+std::string describeShape(const ShapeDesc& shape) {
+  if (const auto* b = std::get_if<BoxDesc>(&shape)) {
+    return "a box from " + vecString(b->min) + " to " + vecString(b->max);
+  }
+  const auto& s = std::get<SphereDesc>(shape);
+  return "a sphere at " + vecString(s.center) + " of radius " + formatNumber(s.radius);
+}
+
+// Objects
+
+std::string objectKeyHint(ObjectKind kind, const std::string& key) {
+  if (key == "material") return "a rigid object takes a density, not a material";
+  if (key == "density")
+    return "only rigid objects take a density; others get it from their material";
+  if (key == "fixed" || key == "angular_velocity") return "only rigid objects take it";
+  if (key == "friction" && kind == ObjectKind::Mpm) {
+    return "only rigid and elastic objects take it, for contact with MPM material";
+  }
+  return {};
+}
+
+int resolveMaterial(const ParamDict& d, const std::vector<MaterialDesc>& materials) {
+  const std::string name = d.requireString("material");
+  std::vector<std::string> names;
+  for (std::size_t i = 0; i < materials.size(); ++i) {
+    if (materials[i].name == name) return static_cast<int>(i);
+    names.push_back(materials[i].name);
+  }
+  std::string what = "expected the name of an entry of \"materials\", got " + inQuotes(name);
+  if (names.empty()) {
+    what += ", but the scene defines no materials";
+  } else {
+    std::string known;
+    for (const auto& n : names) known += (known.empty() ? "" : ", ") + inQuotes(n);
+    what += "; known materials: " + known;
+    if (auto near = closestMatch(name, names)) what += "; did you mean " + inQuotes(*near) + "?";
+  }
+  d.fail("material", what);
+}
+
+ObjectDesc parseObject(const ParamDict& d, const std::vector<MaterialDesc>& materials,
+                       const DomainDesc& domain, const std::string& scene_dir) {
+  ObjectDesc o;
+  o.name = requireSafeName(d, "name");
+  o.kind = d.requireEnum("kind", kKinds);
+  o.shape = parseShape(d.requireDict("shape"), scene_dir);
+  o.velocity = d.getVec3("velocity", o.velocity);
+
+  // Read the keys that this kind takes
+  switch (o.kind) {
+    case ObjectKind::Mpm:
+      o.material = resolveMaterial(d, materials);
+      break;
+    case ObjectKind::Elastic: {
+      o.material = resolveMaterial(d, materials);
+      const MaterialDesc& m = materials[static_cast<std::size_t>(o.material)];
+      // The elastic solver has no plasticity or fluid pressure.
+      if (m.model != MaterialModel::FixedCorotated && m.model != MaterialModel::NeoHookean) {
+        d.fail("material", "expected a fixed_corotated or neo_hookean material, got " +
+                               inQuotes(m.name) + " of model " +
+                               inQuotes(nameOf(kModels, m.model)));
+      }
+      o.friction = d.getDouble("friction", o.friction, Range::nonNegative());
+      break;
+    }
+    case ObjectKind::Rigid:
+      o.density = d.requireDouble("density", Range::positive());
+      o.fixed = d.getBool("fixed", o.fixed);
+      o.angular_velocity = d.getVec3("angular_velocity", o.angular_velocity);
+      o.friction = d.getDouble("friction", o.friction, Range::nonNegative());
+      break;
+  }
+  d.checkUnknownKeys("for an object of kind " + inQuotes(nameOf(kKinds, o.kind)),
+                     [&](const std::string& key) { return objectKeyHint(o.kind, key); });
+
+  // A fixed body never moves, so an initial motion contradicts it.
+  const Vec3Desc zero{0, 0, 0};
+  if (o.fixed && o.velocity != zero) {
+    d.fail("velocity", "expected no motion for a fixed object, got " + vecString(o.velocity));
+  }
+  if (o.fixed && o.angular_velocity != zero) {
+    d.fail("angular_velocity",
+           "expected no motion for a fixed object, got " + vecString(o.angular_velocity));
+  }
+  if (!overlapsDomain(o.shape, domain)) {
+    d.fail("shape", "expected a shape at least partly inside the domain (" + vecString(domain.min) +
+                        " to " + vecString(domain.max) + "), got " + describeShape(o.shape));
+  }
+  return o;
+}
+
+// Output and preview render
+
+OutputDesc parseOutput(const ParamDict& root, const std::string& name,
+                       const std::string& scene_dir) {
+  OutputDesc out;
+  // The default follows the contract's "out/<name>", taken relative to the
+  // working directory (where the user runs triad), not to the scene file.
+  out.dir = (fs::path("out") / name).string();
+  if (auto o = root.getDict("output")) {
+    if (o->has("dir")) out.dir = resolveRelative(scene_dir, o->requireString("dir"));
+    out.ply = o->getBool("ply", out.ply);
+    out.vdb = o->getBool("vdb", out.vdb);
+    out.png = o->getBool("png", out.png);
+    o->checkUnknownKeys();
+  }
+  return out;
+}
+
+RenderDesc parseRender(const ParamDict& root) {
+  RenderDesc out;
+  auto r = root.getDict("render");
+  if (!r) return out;
+  out.resolution = r->getIntPair("resolution", out.resolution, Range::closed(16, 8192));
+  if (auto c = r->getDict("camera")) {
+    CameraDesc cam;
+    cam.eye = c->requireVec3("eye");
+    cam.target = c->requireVec3("target");
+    if (cam.eye == cam.target) {
+      c->fail("target",
+              "expected a point other than eye (the view direction would be undefined), got " +
+                  vecString(cam.target) + " for both");
+    }
+    cam.fov_deg = c->getDouble("fov_deg", cam.fov_deg, Range::open(0, 180));
+    c->checkUnknownKeys();
+    out.camera = cam;
+  }
+  r->checkUnknownKeys();
+  return out;
+}
+
+// JSON text
+
+// "<file>: line L, column C" of the byte at 0-based `offset`; columns count
+// characters (UTF-8 lead bytes), so that they agree with editors.
+std::string at(const std::string& file, const std::string& text, std::size_t offset) {
+  offset = std::min(offset, text.size());
+  const auto line = 1 + std::count(text.begin(), text.begin() + offset, '\n');
+  const std::size_t nl = offset == 0 ? std::string::npos : text.rfind('\n', offset - 1);
+  std::size_t start = nl == std::string::npos ? 0 : nl + 1;
+  if (start == 0 && text.compare(0, 3, "\xEF\xBB\xBF") == 0)
+    start = std::min<std::size_t>(3, offset);
+  std::size_t column = 1;
+  for (std::size_t i = start; i < offset; ++i) {
+    if ((static_cast<unsigned char>(text[i]) & 0xC0) != 0x80) ++column;
+  }
+  return file + ": line " + std::to_string(line) + ", column " + std::to_string(column);
+}
+
+// nlohmann's messages start with "[json.exception.parse_error.101] parse
+// error at line 3, column 8: "; keep what follows, we give the place.
+std::string stripJsonPrefix(std::string msg) {
+  if (!msg.empty() && msg[0] == '[') {
+    const std::size_t end = msg.find("] ");
+    if (end != std::string::npos) msg.erase(0, end + 2);
+  }
+  if (msg.rfind("parse error", 0) == 0) {
+    const std::size_t colon = msg.find(": ");
+    if (colon != std::string::npos) msg.erase(0, colon + 2);
+  }
+  return msg;
+}
+
+// nlohmann keeps the last of two equal keys; a scene that says "dx" twice is
+// almost certainly a mistake, so the parse callback looks for them.
+class DuplicateKeyFinder {
+ public:
+  bool operator()(int /*depth*/, nlohmann::json::parse_event_t event, nlohmann::json& parsed) {
+    using Event = nlohmann::json::parse_event_t;
+    switch (event) {
+      case Event::object_start:
+      case Event::array_start:
+        countElement();
+        stack_.push_back({event == Event::object_start, {}, {}, -1});
+        break;
+      case Event::object_end:
+      case Event::array_end:
+        stack_.pop_back();
+        break;
+      case Event::key: {
+        Level& top = stack_.back();
+        top.key = parsed.get<std::string>();
+        if (!top.keys.insert(top.key).second && !duplicate_) duplicate_ = path();
+        break;
+      }
+      case Event::value:
+        countElement();
+        break;
+    }
+    return true;
+  }
+  const std::optional<std::string>& duplicate() const { return duplicate_; }
+
+ private:
+  struct Level {
+    bool is_object;
+    std::set<std::string> keys;
+    std::string key;  // the key whose value is being read (objects)
+    long index;       // the element being read (arrays)
+  };
+  void countElement() {
+    if (!stack_.empty() && !stack_.back().is_object) ++stack_.back().index;
+  }
+  std::string path() const {
+    std::string p;
+    for (const Level& l : stack_) {
+      if (l.is_object) {
+        p += (p.empty() ? "" : ".") + l.key;
+      } else {
+        p += "[" + std::to_string(l.index) + "]";
+      }
+    }
+    return p;
+  }
+  std::vector<Level> stack_;
+  std::optional<std::string> duplicate_;
+};
+
+}  // namespace
+
+SceneDesc parseScene(const nlohmann::json& j, const std::string& source_path) {
+  const ParamDict root(j, source_path);
+  const std::string scene_dir = fs::path(source_path).parent_path().string();
+  SceneDesc scene;
+  scene.source_path = source_path;
+
+  // Read the top-level sections
+  scene.version = root.requireInt("version");
+  if (scene.version != 1) {
+    root.fail("version", "expected 1 (the only scene format version this build reads), got " +
+                             std::to_string(scene.version));
+  }
+  scene.name = requireSafeName(root, "name");
+  scene.frames = parseFrames(root);
+  scene.domain = parseDomain(root);
+  scene.gravity = root.getVec3("gravity", scene.gravity);
+  scene.solver = parseSolver(root);
+  for (const auto& [name, dict] : root.getNamedDicts("materials")) {
+    scene.materials.push_back(parseMaterial(name, dict));
+  }
+
+  // Read the objects, whose names must be unique: they name output files
+  std::map<std::string, std::size_t> seen;
+  const std::vector<ParamDict> objects = root.requireDictArray("objects");
+  if (objects.size() > kMaxObjects) {
+    root.fail("objects", "expected at most " + std::to_string(kMaxObjects) + " objects, got " +
+                             std::to_string(objects.size()));
+  }
+  for (std::size_t i = 0; i < objects.size(); ++i) {
+    ObjectDesc o = parseObject(objects[i], scene.materials, scene.domain, scene_dir);
+    auto [it, inserted] = seen.emplace(o.name, i);
+    if (!inserted) {
+      objects[i].fail("name", "expected a name unique among objects, got " + inQuotes(o.name) +
+                                  ", already the name of objects[" + std::to_string(it->second) +
+                                  "]");
+    }
+    scene.objects.push_back(std::move(o));
+  }
+
+  scene.output = parseOutput(root, scene.name, scene_dir);
+  scene.render = parseRender(root);
+  root.checkUnknownKeys();
+  return scene;
+}
+
+SceneDesc loadScene(const std::string& path) {
+  // Read the file
+  std::error_code ec;
+  const fs::file_status st = fs::status(path, ec);
+  if (!fs::exists(st)) throw InputError(path, "cannot read the scene file: no such file");
+  if (fs::is_directory(st)) throw InputError(path, "expected a scene file, got a directory");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    throw InputError(path, std::string("cannot read the scene file: ") + std::strerror(errno));
+  }
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (in.bad()) throw InputError(path, "cannot read the scene file: read error");
+
+  // Parse it as JSON
+  DuplicateKeyFinder duplicates;
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(text, std::ref(duplicates));
+  } catch (const nlohmann::json::parse_error& e) {
+    // e.byte is the 1-based offset of the last character read: the culprit.
+    std::string what = "invalid JSON: " + stripJsonPrefix(e.what());
+    // The reader stops at the token after a forgotten comma, not at the gap.
+    const auto has = [&](const char* s) { return what.find(s) != std::string::npos; };
+    if ((has("expected '}'") || has("expected ']'")) && !has("unexpected '}'") &&
+        !has("unexpected ']'") && !has("end of input")) {
+      what += " (is a comma missing before it?)";
+    }
+    throw InputError(at(path, text, e.byte == 0 ? 0 : e.byte - 1), what);
+  } catch (const nlohmann::json::exception& e) {
+    // Number overflow ("1e400") carries no offset; find the literal instead.
+    const std::string msg = stripJsonPrefix(e.what());
+    std::string where = path;
+    const std::size_t q0 = msg.find('\''), q1 = msg.rfind('\'');
+    if (q0 != std::string::npos && q1 > q0 + 1) {
+      const std::size_t pos = text.find(msg.substr(q0 + 1, q1 - q0 - 1));
+      if (pos != std::string::npos) where = at(path, text, pos);
+    }
+    throw InputError(where, "invalid JSON: " + msg);
+  }
+  if (duplicates.duplicate()) {
+    throw InputError(path + ": " + *duplicates.duplicate(),
+                     "duplicate key: each key may appear only once in an object (the JSON reader "
+                     "would keep only the last)");
+  }
+  return parseScene(j, path);
+}
+
+}  // namespace triad

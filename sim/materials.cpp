@@ -1,0 +1,111 @@
+// Material construction from scene descriptions, and the batched stress
+// kernels (float only, so they live here rather than in the headers).
+#include "sim/materials.h"
+
+#include <cmath>
+
+#include "sim/svd3.h"
+
+namespace triad {
+
+Material makeMaterial(const MaterialDesc& d) {
+  const float E = float(d.youngs_modulus), nu = float(d.poisson_ratio);
+  switch (d.model) {
+    case MaterialModel::FixedCorotated:
+      return FixedCorotated<float>::fromYoungPoisson(E, nu);
+    case MaterialModel::NeoHookean:
+      return NeoHookean<float>::fromYoungPoisson(E, nu);
+    case MaterialModel::Snow: {
+      Snow<float> snow;
+      snow.elastic = FixedCorotated<float>::fromYoungPoisson(E, nu);
+      snow.critical_compression = float(d.critical_compression);
+      snow.critical_stretch = float(d.critical_stretch);
+      snow.hardening = float(d.hardening);
+      return snow;
+    }
+    case MaterialModel::DruckerPrager: {
+      // Derive the cone in double: cohesion strains are small differences.
+      const DruckerPrager<double> dp(d.youngs_modulus, d.poisson_ratio, d.friction_angle_deg,
+                                     d.cohesion);
+      DruckerPrager<float> sand;
+      sand.elastic = {float(dp.elastic.mu), float(dp.elastic.lambda)};
+      sand.alpha = float(dp.alpha);
+      sand.cohesion_strain = float(dp.cohesion_strain);
+      return sand;
+    }
+    case MaterialModel::Water:
+      return Water<float>{float(d.bulk_modulus), float(d.gamma), float(d.viscosity)};
+  }
+  return FixedCorotated<float>{};  // unreachable: the switch covers the enum
+}
+
+float waveSpeed(const MaterialDesc& d) {
+  if (d.model == MaterialModel::Water) return float(std::sqrt(d.bulk_modulus / d.density));
+  const Lame<double> l = lameFromYoungPoisson(d.youngs_modulus, d.poisson_ratio);
+  return float(std::sqrt((l.lambda + 2.0 * l.mu) / d.density));
+}
+
+const char* modelName(MaterialModel model) {
+  switch (model) {
+    case MaterialModel::FixedCorotated:
+      return "fixed_corotated";
+    case MaterialModel::NeoHookean:
+      return "neo_hookean";
+    case MaterialModel::Snow:
+      return "snow";
+    case MaterialModel::DruckerPrager:
+      return "drucker_prager";
+    case MaterialModel::Water:
+      return "water";
+  }
+  return "unknown";
+}
+
+namespace {
+
+// Particles per svd3Batch call: a few vector passes, small enough for the
+// decompositions to stay in L1 between the two loops.
+constexpr int kChunk = 64;
+
+}  // namespace
+
+void kirchhoffBatch(const FixedCorotated<float>& m, int n, const Mat3f* F, Mat3f* tau) {
+  Mat3f R[kChunk];
+  for (int b = 0; b < n; b += kChunk) {
+    const int count = std::min(kChunk, n - b);
+    polarRotationBatch(count, F + b, R);
+    for (int i = 0; i < count; ++i) {
+      const Mat3f& A = F[b + i];
+      const float J = A.determinant();
+      Mat3f t = 2.0f * m.mu * (A - R[i]) * A.transpose();
+      t.diagonal().array() += m.lambda * (J - 1.0f) * J;
+      tau[b + i] = t;
+    }
+  }
+}
+
+void projectAndKirchhoffBatch(const Snow<float>& m, int n, Mat3f* Fe, float* Jp, Mat3f* tau) {
+  Mat3f U[kChunk], V[kChunk];
+  Vec3f s[kChunk];
+  for (int b = 0; b < n; b += kChunk) {
+    const int count = std::min(kChunk, n - b);
+    svd3Batch(count, Fe + b, U, s, V);
+    for (int i = 0; i < count; ++i)
+      tau[b + i] = m.projectSvd(U[i], s[i], V[i], Fe[b + i], Jp[b + i]);
+  }
+}
+
+void projectAndKirchhoffBatch(const DruckerPrager<float>& m, int n, Mat3f* F, Mat3f* tau) {
+  Mat3f U[kChunk], V[kChunk];
+  Vec3f s[kChunk];
+  for (int b = 0; b < n; b += kChunk) {
+    const int count = std::min(kChunk, n - b);
+    svd3Batch(count, F + b, U, s, V);
+    for (int i = 0; i < count; ++i) {
+      m.projectSvd(U[i], s[i], V[i], F[b + i]);
+      tau[b + i] = m.elastic.kirchhoffFromSvd(U[i], s[i]);
+    }
+  }
+}
+
+}  // namespace triad

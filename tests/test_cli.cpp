@@ -1,0 +1,179 @@
+// The `triad` command line end to end: exit statuses, messages, caches.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <fstream>
+#include <sstream>
+
+#include "scene_fixture.h"
+
+namespace triad {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+struct Result {
+  int status = -1;
+  std::string out, err;
+};
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// Runs the triad executable with `args` (and an optional environment prefix).
+Result triad(const fs::path& dir, const std::string& args, const std::string& env = "") {
+  const fs::path out = dir / "stdout.txt", err = dir / "stderr.txt";
+  const std::string cmd = env + " " + TRIAD_EXE + " " + args + " >" + out.string() + " 2>" +
+                          err.string() + " </dev/null";
+  const int raw = std::system(cmd.c_str());
+  Result r;
+  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+  r.out = slurp(out);
+  r.err = slurp(err);
+  return r;
+}
+
+// Every material model in one small scene, colliding, so that a thread-count
+// dependence anywhere shows up in the bytes.
+json mixedScene() {
+  json j = test::baseScene("mixed", {0.4, 0.4, 0.4}, 0.02);
+  j["frames"] = {{"count", 3}, {"fps", 24}};
+  j["materials"] = {
+      {"jelly", {{"model", "fixed_corotated"}, {"density", 1000}, {"youngs_modulus", 5e4},
+                 {"poisson_ratio", 0.3}}},
+      {"rubber", {{"model", "neo_hookean"}, {"density", 1100}, {"youngs_modulus", 8e4},
+                  {"poisson_ratio", 0.4}}},
+      {"snow", {{"model", "snow"}, {"density", 400}, {"youngs_modulus", 1.4e5},
+                {"poisson_ratio", 0.2}}},
+      {"sand", {{"model", "drucker_prager"}, {"density", 1600}, {"youngs_modulus", 1e5},
+                {"poisson_ratio", 0.3}, {"friction_angle_deg", 35}, {"cohesion", 10}}},
+      {"water", {{"model", "water"}, {"density", 1000}, {"bulk_modulus", 1e5},
+                 {"viscosity", 0.001}}}};
+  auto obj = [](const char* name, const char* mat, json shape, std::array<double, 3> v) {
+    return json{{"name", name}, {"kind", "mpm"}, {"material", mat}, {"shape", shape},
+                {"velocity", v}};
+  };
+  j["objects"] = {
+      obj("sand", "sand", test::box({0.02, 0.0, 0.02}, {0.38, 0.08, 0.38}), {0, 0, 0}),
+      obj("jelly", "jelly", test::box({0.05, 0.15, 0.05}, {0.15, 0.25, 0.15}), {0.5, -1, 0}),
+      obj("rubber", "rubber", json{{"sphere", {{"center", {0.3, 0.2, 0.3}}, {"radius", 0.05}}}},
+          {-0.5, -1, 0}),
+      obj("snow", "snow", test::box({0.2, 0.12, 0.05}, {0.3, 0.2, 0.15}), {0, -2, 0.5}),
+      obj("water", "water", test::box({0.05, 0.12, 0.25}, {0.15, 0.3, 0.35}), {1, 0, -1})};
+  j["output"] = {{"vdb", false}, {"png", false}};
+  return j;
+}
+
+TEST(Cli, SameBytesForOneAndTwoThreads) {
+  const fs::path dir = test::tempDir("cli_threads");
+  const std::string scene = test::writeScene(dir, mixedScene());
+  const Result one = triad(dir, "run " + scene + " --threads 1 --quiet --out " + (dir / "t1").string());
+  ASSERT_EQ(one.status, 0) << one.err;
+  const Result two = triad(dir, "run " + scene + " --threads 2 --quiet --out " + (dir / "t2").string());
+  ASSERT_EQ(two.status, 0) << two.err;
+  for (int f = 0; f <= 3; ++f) {
+    char name[64];
+    std::snprintf(name, sizeof(name), "particles/particles.%04d.ply", f);
+    const std::string a = slurp(dir / "t1" / name), b = slurp(dir / "t2" / name);
+    ASSERT_GT(a.size(), 1000u) << name;
+    EXPECT_TRUE(a == b) << name << " differs between 1 and 2 threads";
+  }
+  // The scene did move: frame 3 differs from frame 0.
+  EXPECT_NE(slurp(dir / "t1/particles/particles.0000.ply"),
+            slurp(dir / "t1/particles/particles.0003.ply"));
+}
+
+TEST(Cli, WritesCacheAndRunRecord) {
+  const fs::path dir = test::tempDir("cli_record");
+  json j = mixedScene();
+  j["frames"]["count"] = 2;
+  const std::string scene = test::writeScene(dir, j);
+  const Result r = triad(dir, "run " + scene + " --threads 2 --out " + (dir / "cache").string());
+  ASSERT_EQ(r.status, 0) << r.err;
+  // Plain progress lines when not a terminal, and a closing summary.
+  EXPECT_NE(r.err.find("frame 2/2"), std::string::npos) << r.err;
+  EXPECT_NE(r.out.find("particle-substeps/s"), std::string::npos) << r.out;
+  const json rec = json::parse(slurp(dir / "cache/run.json"));
+  EXPECT_TRUE(rec["finished"].get<bool>());
+  EXPECT_EQ(rec["frames"]["written"].get<int>(), 3);
+  EXPECT_EQ(rec["threads"].get<int>(), 2);
+  EXPECT_GT(rec["steps"].get<int>(), 0);
+  EXPECT_GT(rec["particles"]["per_object"]["water"].get<int>(), 0);
+  EXPECT_EQ(rec["scene"]["name"], "mixed");
+  EXPECT_LE(rec["dt"]["min"].get<double>(), rec["dt"]["max"].get<double>());
+  EXPECT_GT(rec["wall_seconds"]["phases"]["p2g"].get<double>(), 0.0);
+}
+
+TEST(Cli, TypoInSceneExitsTwoNamingTheKey) {
+  const fs::path dir = test::tempDir("cli_typo");
+  json j = mixedScene();
+  j["materials"]["jelly"].erase("youngs_modulus");
+  j["materials"]["jelly"]["youngs_modulu"] = 5e4;
+  const std::string scene = test::writeScene(dir, j);
+  const Result r = triad(dir, "run " + scene + " --out " + (dir / "cache").string());
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("scene.json"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("materials.jelly.youngs_modulu"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("youngs_modulus"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "cache")) << "nothing may be written for bad input";
+}
+
+TEST(Cli, BadMaterialReferenceAndMissingFileExitTwo) {
+  const fs::path dir = test::tempDir("cli_bad");
+  json j = mixedScene();
+  j["objects"][1]["material"] = "jely";
+  const Result r = triad(dir, "run " + test::writeScene(dir, j));
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("objects[1].material"), std::string::npos) << r.err;
+  const Result missing = triad(dir, "run " + (dir / "nope.json").string());
+  EXPECT_EQ(missing.status, 2);
+  EXPECT_NE(missing.err.find("nope.json"), std::string::npos) << missing.err;
+  const Result usage = triad(dir, "run");
+  EXPECT_EQ(usage.status, 2);
+}
+
+// A run that goes non-finite stops with exit 1, names the step, particle and
+// object, and leaves every frame already written intact.
+TEST(Cli, BlowUpExitsOneKeepingFrames) {
+  const fs::path dir = test::tempDir("cli_blowup");
+  json j = mixedScene();
+  j["frames"]["count"] = 3;
+  const std::string scene = test::writeScene(dir, j);
+  const Result good = triad(dir, "run " + scene + " --quiet --out " + (dir / "good").string());
+  ASSERT_EQ(good.status, 0);
+  const json rec_good = json::parse(slurp(dir / "good/run.json"));
+  // Poison one particle's velocity in the middle of frame 2.
+  const int64_t steps = rec_good["steps"].get<int64_t>();
+  const std::string env = "TRIAD_FAULT_STEP=" + std::to_string(steps * 5 / 6);
+  const Result bad = triad(dir, "run " + scene + " --quiet --out " + (dir / "bad").string(), env);
+  EXPECT_EQ(bad.status, 1) << bad.err;
+  EXPECT_NE(bad.err.find("non-finite"), std::string::npos) << bad.err;
+  EXPECT_NE(bad.err.find("object '"), std::string::npos) << bad.err;
+  EXPECT_NE(bad.err.find("step "), std::string::npos) << bad.err;
+  const json rec = json::parse(slurp(dir / "bad/run.json"));
+  EXPECT_FALSE(rec["finished"].get<bool>());
+  EXPECT_FALSE(rec["error"].is_null());
+  const int written = rec["frames"]["written"].get<int>();
+  ASSERT_GE(written, 2);
+  ASSERT_LE(written, 3);
+  // Frames already written are complete and equal to the good run's.
+  for (int f = 0; f < written; ++f) {
+    char name[64];
+    std::snprintf(name, sizeof(name), "particles/particles.%04d.ply", f);
+    EXPECT_EQ(slurp(dir / "bad" / name), slurp(dir / "good" / name)) << name;
+  }
+  char next[64];
+  std::snprintf(next, sizeof(next), "particles/particles.%04d.ply", written);
+  EXPECT_FALSE(fs::exists(dir / "bad" / next));
+  // No temporary files are left behind.
+  for (const auto& e : fs::recursive_directory_iterator(dir / "bad"))
+    EXPECT_EQ(e.path().string().find(".tmp"), std::string::npos) << e.path();
+}
+
+}  // namespace
+}  // namespace triad

@@ -1,0 +1,165 @@
+// End-to-end physics from scene files, each checked against a number.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "scene_fixture.h"
+#include "sim/solver.h"
+
+namespace triad {
+namespace {
+
+using nlohmann::json;
+using test::box;
+
+json jelly(double E = 1e5) {
+  return {{"model", "fixed_corotated"}, {"density", 1000}, {"youngs_modulus", E},
+          {"poisson_ratio", 0.3}};
+}
+
+json sand(double E = 1e5, double phi = 30) {
+  return {{"model", "drucker_prager"}, {"density", 1600}, {"youngs_modulus", E},
+          {"poisson_ratio", 0.3}, {"friction_angle_deg", phi}};
+}
+
+json mpmObject(const std::string& name, const std::string& mat, const json& shape,
+               const std::array<double, 3>& v = {0, 0, 0}) {
+  return {{"name", name}, {"kind", "mpm"}, {"material", mat}, {"shape", shape}, {"velocity", v}};
+}
+
+// A free-falling body follows y0 - g t^2/2. Symplectic Euler is first order:
+// it follows the discrete recurrence exactly, and the parabola to g t dt / 2.
+class FreeFall : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(FreeFall, FollowsParabola) {
+  json j = test::baseScene("free_fall", {0.4, 2.0, 0.4}, 0.02);
+  j["solver"] = {{"transfer", GetParam()}, {"max_dt", 2e-3}};
+  j["materials"]["jelly"] = jelly();
+  j["objects"].push_back(mpmObject("body", "jelly", box({0.15, 1.6, 0.15}, {0.25, 1.7, 0.25})));
+  World w = test::loadWorld(test::tempDir("free_fall_" + GetParam()), j);
+  Solver solver(w);
+  const double g = 9.81, y0 = test::moments(w).centre.y();
+  double v_discrete = 0.0, y_discrete = y0, dt_max = 0.0;
+  const double t_end = 0.4;
+  solver.advanceTo(t_end, [&](double dt) {
+    v_discrete -= g * dt;
+    y_discrete += v_discrete * dt;
+    dt_max = std::max(dt_max, dt);
+  });
+  EXPECT_EQ(w.time, t_end);  // lands exactly on the requested time
+  const test::Moments m = test::moments(w);
+  EXPECT_NEAR(m.centre.y(), y_discrete, 2e-5);
+  EXPECT_NEAR(m.centre.y(), y0 - 0.5 * g * t_end * t_end, 0.5 * g * t_end * dt_max + 2e-5);
+  EXPECT_NEAR(m.momentum.y() / m.mass, -g * t_end, 1e-4);
+  EXPECT_NEAR(m.centre.x(), 0.2, 1e-5);
+  // A uniform motion deforms nothing.
+  for (const ParticleSet& s : w.sets)
+    for (size_t i = 0; i < s.size(); ++i) ASSERT_NEAR(s.v[i].y(), -g * t_end, 1e-4);
+}
+
+INSTANTIATE_TEST_SUITE_P(Transfers, FreeFall, ::testing::Values("apic", "pic", "flip"));
+
+// With gravity off and no walls touched, P2G and G2P conserve linear
+// momentum exactly; only float round-off remains.
+TEST(Momentum, ConservedInCollisionWithoutGravity) {
+  json j = test::baseScene("momentum", {1, 1, 1}, 0.02);
+  j["gravity"] = {0, 0, 0};
+  j["materials"]["jelly"] = jelly();
+  j["materials"]["sand"] = sand();
+  j["materials"]["water"] = {{"model", "water"}, {"density", 1000}, {"bulk_modulus", 2e5},
+                             {"viscosity", 0.01}};
+  j["objects"].push_back(
+      mpmObject("jelly", "jelly", box({0.2, 0.4, 0.4}, {0.4, 0.6, 0.6}), {2.0, 0.3, 0}));
+  j["objects"].push_back(
+      mpmObject("sand", "sand", box({0.45, 0.42, 0.38}, {0.6, 0.6, 0.6}), {-1.5, 0, 0.2}));
+  j["objects"].push_back(
+      mpmObject("water", "water", box({0.62, 0.4, 0.4}, {0.72, 0.5, 0.5}), {-2.0, 0.5, 0}));
+  World w = test::loadWorld(test::tempDir("momentum"), j);
+  Solver solver(w);
+  const test::Moments before = test::moments(w);
+  solver.advanceTo(0.1);
+  const test::Moments after = test::moments(w);
+  ASSERT_GT(solver.record().steps, 50);
+  for (int d = 0; d < 3; ++d)
+    EXPECT_NEAR(after.momentum[d], before.momentum[d], 2e-6 * before.abs_momentum) << "axis " << d;
+  // The bodies did collide: kinetic energy was lost to deformation and plasticity.
+  EXPECT_LT(after.kinetic, 0.9 * before.kinetic);
+}
+
+// A jelly cube dropped on the floor bounces and stays finite.
+TEST(Jelly, BouncesOnFloor) {
+  json j = test::baseScene("jelly_bounce", {0.6, 0.8, 0.6}, 0.02);
+  j["materials"]["jelly"] = jelly(5e4);
+  j["objects"].push_back(mpmObject("cube", "jelly", box({0.2, 0.3, 0.2}, {0.4, 0.5, 0.4})));
+  World w = test::loadWorld(test::tempDir("jelly_bounce"), j);
+  Solver solver(w);
+  double min_vy = 0.0, max_vy_after = -1e9, min_y = 1e9;
+  bool hit = false;
+  for (int k = 1; k <= 60; ++k) {
+    solver.advanceTo(k * 0.01);
+    const test::Moments m = test::moments(w);
+    const double vy = m.momentum.y() / m.mass;
+    min_vy = std::min(min_vy, vy);
+    min_y = std::min(min_y, m.centre.y());
+    if (vy > 0.0) hit = true;
+    if (hit) max_vy_after = std::max(max_vy_after, vy);
+    for (const ParticleSet& s : w.sets)
+      for (size_t i = 0; i < s.size(); ++i) {
+        ASSERT_TRUE(s.x[i].allFinite() && s.v[i].allFinite());
+        ASSERT_GT(s.volumeRatio(i), 0.3f);
+        ASSERT_LT(s.volumeRatio(i), 3.0f);
+      }
+  }
+  // Impact speed from a 0.3 m fall (minus what the floor takes in the last steps).
+  EXPECT_LT(min_vy, -0.8 * std::sqrt(2 * 9.81 * 0.3));
+  ASSERT_TRUE(hit) << "the cube never moved up again";
+  EXPECT_GT(max_vy_after, 0.5) << "the bounce is too weak";
+  // It never sank into the floor: the centre stays above half the cube's height.
+  EXPECT_GT(min_y, 0.05);
+}
+
+// Profile slope of a granular heap: fit h(r) where the heap is between 20%
+// and 80% of its height; returns the angle in degrees.
+double heapAngle(const World& w, double cx, double cz, double dr) {
+  std::vector<double> h(200, 0.0);
+  for (const ParticleSet& s : w.sets)
+    for (size_t i = 0; i < s.size(); ++i) {
+      const double r = std::hypot(s.x[i].x() - cx, s.x[i].z() - cz);
+      const size_t b = std::min<size_t>(h.size() - 1, size_t(r / dr));
+      h[b] = std::max(h[b], double(s.x[i].y()));
+    }
+  const double top = *std::max_element(h.begin(), h.end());
+  double sr = 0, sh = 0, srr = 0, srh = 0;
+  int n = 0;
+  for (size_t b = 0; b < h.size(); ++b) {
+    if (h[b] < 0.2 * top || h[b] > 0.8 * top) continue;
+    const double r = (b + 0.5) * dr;
+    sr += r, sh += h[b], srr += r * r, srh += r * h[b], ++n;
+  }
+  if (n < 3) return 90.0;
+  const double slope = (n * srh - sr * sh) / (n * srr - sr * sr);
+  return std::atan(std::abs(slope)) * 180.0 / M_PI;
+}
+
+// A collapsing sand column comes to rest at a slope no steeper than its
+// friction angle (and does not flatten like a fluid).
+TEST(Sand, ComesToRestAtRepose) {
+  const double phi = 30.0;
+  json j = test::baseScene("sand_heap", {0.6, 0.3, 0.6}, 0.01);
+  j["domain"]["boundary"] = {{"type", "slip"}, {"friction", 0.6}};
+  j["materials"]["sand"] = sand(1e5, phi);
+  j["objects"].push_back(mpmObject("column", "sand", box({0.25, 0.0, 0.25}, {0.35, 0.2, 0.35})));
+  World w = test::loadWorld(test::tempDir("sand_heap"), j);
+  Solver solver(w);
+  solver.advanceTo(1.0);
+  double max_speed = 0.0;
+  for (const ParticleSet& s : w.sets)
+    for (size_t i = 0; i < s.size(); ++i) max_speed = std::max(max_speed, double(s.v[i].norm()));
+  EXPECT_LT(max_speed, 0.05) << "the heap has not come to rest";
+  const double angle = heapAngle(w, 0.3, 0.3, 0.01);
+  EXPECT_LE(angle, phi + 2.0);
+  EXPECT_GE(angle, 0.4 * phi) << "sand flowed out like a fluid";
+}
+
+}  // namespace
+}  // namespace triad

@@ -1,0 +1,669 @@
+// Scene loading: a valid scene comes through as written with defaults filled
+// in, and every kind of bad input is an InputError naming the file, the key
+// path and what was expected.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <initializer_list>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "import/param_dict.h"
+#include "import/scene_loader.h"
+#include "sim/errors.h"
+
+namespace triad {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+// The contract's example (shared/specs/scene-format.md).
+json exampleScene() {
+  return json::parse(R"({
+  "version": 1,
+  "name": "sand_on_ramp",
+  "frames": { "count": 48, "fps": 24 },
+  "domain": {
+    "min": [0, 0, 0], "max": [1, 1, 1], "dx": 0.01,
+    "boundary": { "type": "slip", "friction": 0.3 }
+  },
+  "gravity": [0, -9.81, 0],
+  "solver": {
+    "cfl": 0.4, "max_dt": 0.001, "particles_per_cell": 8,
+    "transfer": "apic", "coupling": "three_grid"
+  },
+  "materials": {
+    "sand":  { "model": "drucker_prager", "density": 1600,
+               "youngs_modulus": 3.5e5, "poisson_ratio": 0.3,
+               "friction_angle_deg": 30, "cohesion": 0 },
+    "jelly": { "model": "fixed_corotated", "density": 1000,
+               "youngs_modulus": 5e4, "poisson_ratio": 0.3 }
+  },
+  "objects": [
+    { "name": "pile", "kind": "mpm", "material": "sand",
+      "shape": { "box": { "min": [0.1, 0.0, 0.1], "max": [0.4, 0.3, 0.4] } },
+      "velocity": [0, 0, 0] },
+    { "name": "ramp", "kind": "rigid", "density": 2500, "fixed": true,
+      "friction": 0.2,
+      "shape": { "mesh": { "path": "meshes/ramp.obj", "scale": 1.0,
+                 "translate": [0.5, 0.2, 0.5], "rotate_deg": [0, 0, 30] } } },
+    { "name": "ball", "kind": "rigid", "density": 500, "friction": 0.3,
+      "shape": { "sphere": { "center": [0.5, 0.8, 0.5], "radius": 0.08 } },
+      "velocity": [0, -1, 0], "angular_velocity": [0, 0, 0] },
+    { "name": "cube", "kind": "elastic", "material": "jelly", "friction": 0.3,
+      "shape": { "box": { "min": [0.6, 0.5, 0.6], "max": [0.8, 0.7, 0.8] } } }
+  ],
+  "output": { "dir": "out/sand_on_ramp", "ply": true, "vdb": true, "png": true },
+  "render": {
+    "resolution": [640, 360],
+    "camera": { "eye": [2.0, 1.2, 2.0], "target": [0.5, 0.3, 0.5], "fov_deg": 40 }
+  }
+})");
+}
+
+// The least a scene must say.
+json minimalScene() {
+  return json::parse(R"({
+  "version": 1, "name": "tiny",
+  "domain": { "min": [0, 0, 0], "max": [1, 1, 1], "dx": 0.1 },
+  "materials": { "jelly": { "model": "neo_hookean", "density": 1000,
+                            "youngs_modulus": 1e4, "poisson_ratio": 0.2 } },
+  "objects": [ { "name": "blob", "kind": "mpm", "material": "jelly",
+                 "shape": { "sphere": { "center": [0.5, 0.5, 0.5], "radius": 0.2 } } } ]
+})");
+}
+
+// `j` with the value at JSON pointer `ptr` replaced (or added).
+json with(json j, const std::string& ptr, const json& value) {
+  j[json::json_pointer(ptr)] = value;
+  return j;
+}
+
+json without(json j, const std::string& ptr) {
+  const json::json_pointer p(ptr);
+  j[p.parent_pointer()].erase(p.back());
+  return j;
+}
+
+::testing::AssertionResult contains(const std::string& message,
+                                    std::initializer_list<std::string> parts) {
+  for (const std::string& part : parts) {
+    if (message.find(part) == std::string::npos) {
+      return ::testing::AssertionFailure() << "message: " << message << "\n lacks: " << part;
+    }
+  }
+  return ::testing::AssertionSuccess();
+}
+
+// The message of the InputError that parseScene raises for `j`.
+std::string parseError(const json& j) {
+  try {
+    parseScene(j, "virtual.json");
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  ADD_FAILURE() << "expected an InputError";
+  return {};
+}
+
+class SceneLoaderTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    std::string test = std::string(info->test_suite_name()) + "_" + info->name();
+    std::replace(test.begin(), test.end(), '/', '_');  // parameterised names have slashes
+    dir_ = fs::temp_directory_path() / ("triad_scene_" + std::to_string(::getpid()) + "_" + test);
+    fs::remove_all(dir_);
+    fs::create_directories(dir_ / "meshes");
+    std::ofstream(dir_ / "meshes" / "ramp.obj") << "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+  }
+  void TearDown() override {
+    std::error_code ec;
+    fs::remove_all(dir_, ec);
+  }
+
+  std::string writeText(const std::string& text, const std::string& file = "scene.json") {
+    const fs::path path = dir_ / file;
+    std::ofstream(path, std::ios::binary) << text;
+    return path.string();
+  }
+  SceneDesc load(const json& j) { return loadScene(writeText(j.dump(2))); }
+
+  // The message of the InputError that loading the file raises.
+  std::string errorOfFile(const std::string& path) {
+    try {
+      loadScene(path);
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    ADD_FAILURE() << "expected an InputError from " << path;
+    return {};
+  }
+  std::string error(const json& j) { return errorOfFile(writeText(j.dump(2))); }
+
+  fs::path dir_;
+};
+
+// Valid scenes
+
+TEST_F(SceneLoaderTest, ParsesTheContractExampleAsWritten) {
+  const SceneDesc s = load(exampleScene());
+  EXPECT_EQ(s.source_path, (dir_ / "scene.json").string());
+  EXPECT_EQ(s.version, 1);
+  EXPECT_EQ(s.name, "sand_on_ramp");
+  EXPECT_EQ(s.frames.count, 48);
+  EXPECT_EQ(s.frames.fps, 24.0);
+  EXPECT_EQ(s.domain.min, (Vec3Desc{0, 0, 0}));
+  EXPECT_EQ(s.domain.max, (Vec3Desc{1, 1, 1}));
+  EXPECT_EQ(s.domain.dx, 0.01);
+  EXPECT_EQ(s.domain.boundary.type, BoundaryType::Slip);
+  EXPECT_EQ(s.domain.boundary.friction, 0.3);
+  EXPECT_EQ(s.gravity, (Vec3Desc{0, -9.81, 0}));
+  EXPECT_EQ(s.solver.cfl, 0.4);
+  EXPECT_EQ(s.solver.max_dt, 0.001);
+  EXPECT_EQ(s.solver.particles_per_cell, 8);
+  EXPECT_EQ(s.solver.transfer, TransferScheme::Apic);
+  EXPECT_EQ(s.solver.coupling, CouplingScheme::ThreeGrid);
+
+  // Materials come in name order; objects refer to them by index.
+  ASSERT_EQ(s.materials.size(), 2u);
+  const MaterialDesc& jelly = s.materials[0];
+  const MaterialDesc& sand = s.materials[1];
+  EXPECT_EQ(jelly.name, "jelly");
+  EXPECT_EQ(jelly.model, MaterialModel::FixedCorotated);
+  EXPECT_EQ(jelly.density, 1000.0);
+  EXPECT_EQ(jelly.youngs_modulus, 5e4);
+  EXPECT_EQ(jelly.poisson_ratio, 0.3);
+  EXPECT_EQ(sand.name, "sand");
+  EXPECT_EQ(sand.model, MaterialModel::DruckerPrager);
+  EXPECT_EQ(sand.density, 1600.0);
+  EXPECT_EQ(sand.youngs_modulus, 3.5e5);
+  EXPECT_EQ(sand.poisson_ratio, 0.3);
+  EXPECT_EQ(sand.friction_angle_deg, 30.0);
+  EXPECT_EQ(sand.cohesion, 0.0);
+
+  ASSERT_EQ(s.objects.size(), 4u);
+  const ObjectDesc& pile = s.objects[0];
+  EXPECT_EQ(pile.name, "pile");
+  EXPECT_EQ(pile.kind, ObjectKind::Mpm);
+  EXPECT_EQ(pile.material, 1);
+  const auto& box = std::get<BoxDesc>(pile.shape);
+  EXPECT_EQ(box.min, (Vec3Desc{0.1, 0.0, 0.1}));
+  EXPECT_EQ(box.max, (Vec3Desc{0.4, 0.3, 0.4}));
+  EXPECT_EQ(pile.velocity, (Vec3Desc{0, 0, 0}));
+
+  const ObjectDesc& ramp = s.objects[1];
+  EXPECT_EQ(ramp.name, "ramp");
+  EXPECT_EQ(ramp.kind, ObjectKind::Rigid);
+  EXPECT_EQ(ramp.material, -1);
+  EXPECT_EQ(ramp.density, 2500.0);
+  EXPECT_TRUE(ramp.fixed);
+  EXPECT_EQ(ramp.friction, 0.2);
+  const auto& mesh = std::get<MeshDesc>(ramp.shape);
+  EXPECT_EQ(mesh.path, "meshes/ramp.obj");
+  EXPECT_EQ(fs::path(mesh.resolved_path), (dir_ / "meshes" / "ramp.obj").lexically_normal());
+  EXPECT_EQ(mesh.scale, 1.0);
+  EXPECT_EQ(mesh.translate, (Vec3Desc{0.5, 0.2, 0.5}));
+  EXPECT_EQ(mesh.rotate_deg, (Vec3Desc{0, 0, 30}));
+
+  const ObjectDesc& ball = s.objects[2];
+  EXPECT_EQ(ball.kind, ObjectKind::Rigid);
+  EXPECT_FALSE(ball.fixed);
+  EXPECT_EQ(ball.density, 500.0);
+  EXPECT_EQ(ball.friction, 0.3);
+  EXPECT_EQ(ball.velocity, (Vec3Desc{0, -1, 0}));
+  EXPECT_EQ(ball.angular_velocity, (Vec3Desc{0, 0, 0}));
+  const auto& sphere = std::get<SphereDesc>(ball.shape);
+  EXPECT_EQ(sphere.center, (Vec3Desc{0.5, 0.8, 0.5}));
+  EXPECT_EQ(sphere.radius, 0.08);
+
+  const ObjectDesc& cube = s.objects[3];
+  EXPECT_EQ(cube.kind, ObjectKind::Elastic);
+  EXPECT_EQ(cube.material, 0);
+  EXPECT_EQ(cube.friction, 0.3);
+  EXPECT_TRUE(std::holds_alternative<BoxDesc>(cube.shape));
+
+  // output.dir is relative to the scene file.
+  EXPECT_EQ(fs::path(s.output.dir), (dir_ / "out" / "sand_on_ramp").lexically_normal());
+  EXPECT_TRUE(s.output.ply && s.output.vdb && s.output.png);
+  EXPECT_EQ(s.render.resolution, (std::array<int, 2>{640, 360}));
+  ASSERT_TRUE(s.render.camera.has_value());
+  EXPECT_EQ(s.render.camera->eye, (Vec3Desc{2.0, 1.2, 2.0}));
+  EXPECT_EQ(s.render.camera->target, (Vec3Desc{0.5, 0.3, 0.5}));
+  EXPECT_EQ(s.render.camera->fov_deg, 40.0);
+}
+
+TEST_F(SceneLoaderTest, FillsDefaultsForWhatIsLeftOut) {
+  const SceneDesc s = load(minimalScene());
+  const SceneDesc defaults;
+  EXPECT_EQ(s.frames.count, defaults.frames.count);
+  EXPECT_EQ(s.frames.fps, defaults.frames.fps);
+  EXPECT_EQ(s.domain.boundary.type, BoundaryType::Slip);
+  EXPECT_EQ(s.domain.boundary.friction, 0.0);
+  EXPECT_EQ(s.gravity, (Vec3Desc{0, -9.81, 0}));
+  EXPECT_EQ(s.solver.cfl, defaults.solver.cfl);
+  EXPECT_EQ(s.solver.max_dt, defaults.solver.max_dt);
+  EXPECT_EQ(s.solver.particles_per_cell, defaults.solver.particles_per_cell);
+  EXPECT_EQ(s.solver.transfer, TransferScheme::Apic);
+  EXPECT_EQ(s.solver.flip_ratio, defaults.solver.flip_ratio);
+  EXPECT_EQ(s.solver.coupling, CouplingScheme::ThreeGrid);
+  // The default output directory is relative to the working directory.
+  EXPECT_EQ(fs::path(s.output.dir), fs::path("out") / "tiny");
+  EXPECT_TRUE(s.output.ply && s.output.vdb && s.output.png);
+  EXPECT_EQ(s.render.resolution, (std::array<int, 2>{640, 360}));
+  EXPECT_FALSE(s.render.camera.has_value());
+  EXPECT_EQ(s.objects[0].velocity, (Vec3Desc{0, 0, 0}));
+}
+
+TEST_F(SceneLoaderTest, FillsModelDefaultsAndReadsExtensions) {
+  json j = minimalScene();
+  j["materials"]["snow"] = {
+      {"model", "snow"}, {"density", 400}, {"youngs_modulus", 1.4e5}, {"poisson_ratio", 0.2}};
+  j["materials"]["water"] = {
+      {"model", "water"}, {"density", 1000}, {"bulk_modulus", 2e5}, {"gamma", 1}};
+  j["materials"]["sand"] = {{"model", "drucker_prager"},
+                            {"density", 1600},
+                            {"youngs_modulus", 3.5e5},
+                            {"poisson_ratio", 0.3}};
+  j["solver"] = {{"transfer", "flip"}, {"flip_ratio", 0.5}, {"coupling", "single_grid"}};
+  j["objects"][0]["material"] = "water";
+  const SceneDesc s = load(j);
+  const MaterialDesc defaults;
+  ASSERT_EQ(s.materials.size(), 4u);  // jelly, sand, snow, water
+  const MaterialDesc& sand = s.materials[1];
+  EXPECT_EQ(sand.friction_angle_deg, defaults.friction_angle_deg);
+  EXPECT_EQ(sand.cohesion, defaults.cohesion);
+  const MaterialDesc& snow = s.materials[2];
+  EXPECT_EQ(snow.model, MaterialModel::Snow);
+  EXPECT_EQ(snow.critical_compression, defaults.critical_compression);
+  EXPECT_EQ(snow.critical_stretch, defaults.critical_stretch);
+  EXPECT_EQ(snow.hardening, defaults.hardening);
+  const MaterialDesc& water = s.materials[3];
+  EXPECT_EQ(water.model, MaterialModel::Water);
+  EXPECT_EQ(water.bulk_modulus, 2e5);
+  EXPECT_EQ(water.viscosity, 0.0);
+  EXPECT_EQ(water.gamma, 1.0);
+  EXPECT_EQ(s.objects[0].material, 3);
+  EXPECT_EQ(s.solver.transfer, TransferScheme::Flip);
+  EXPECT_EQ(s.solver.flip_ratio, 0.5);
+  EXPECT_EQ(s.solver.coupling, CouplingScheme::SingleGrid);
+}
+
+TEST_F(SceneLoaderTest, AcceptsIntegersWrittenWithAZeroFraction) {
+  const SceneDesc s = load(with(exampleScene(), "/solver/particles_per_cell", 8.0));
+  EXPECT_EQ(s.solver.particles_per_cell, 8);
+}
+
+TEST_F(SceneLoaderTest, KeepsAbsolutePaths) {
+  const std::string mesh = (dir_ / "meshes" / "ramp.obj").string();
+  const std::string out = (dir_ / "elsewhere").string();
+  json j = with(exampleScene(), "/objects/1/shape/mesh/path", mesh);
+  const SceneDesc s = load(with(j, "/output/dir", out));
+  EXPECT_EQ(std::get<MeshDesc>(s.objects[1].shape).resolved_path, mesh);
+  EXPECT_EQ(s.output.dir, out);
+}
+
+TEST_F(SceneLoaderTest, ParseSceneResolvesPathsAgainstTheNamedFile) {
+  const SceneDesc s = parseScene(exampleScene(), (dir_ / "virtual.json").string());
+  EXPECT_EQ(fs::path(std::get<MeshDesc>(s.objects[1].shape).resolved_path),
+            (dir_ / "meshes" / "ramp.obj").lexically_normal());
+}
+
+// Reading the file
+
+TEST_F(SceneLoaderTest, MissingFileIsAnInputError) {
+  const std::string path = (dir_ / "no_such_scene.json").string();
+  const std::string msg = errorOfFile(path);
+  EXPECT_TRUE(contains(msg, {path, "no such file"}));
+  EXPECT_TRUE(contains(errorOfFile(dir_.string()), {"directory"}));
+}
+
+TEST_F(SceneLoaderTest, JsonSyntaxErrorReportsLineAndColumn) {
+  const std::string path = writeText("{\n  \"version\": 1,\n  \"name\": x\n}\n", "broken.json");
+  EXPECT_TRUE(contains(errorOfFile(path), {"broken.json", "line 3, column 11", "invalid JSON"}));
+
+  // Columns count characters, not bytes (the é is two bytes).
+  const std::string utf8 = writeText("{\n  \"name\": \"\xC3\xA9\" x\n}\n", "utf8.json");
+  EXPECT_TRUE(contains(errorOfFile(utf8), {"line 2, column 15"}));
+
+  const std::string trailing = writeText("{\n  \"version\": 1,\n}\n", "trailing.json");
+  EXPECT_TRUE(contains(errorOfFile(trailing), {"line 3, column 1"}));
+
+  const std::string empty = writeText("", "empty.json");
+  EXPECT_TRUE(contains(errorOfFile(empty), {"empty.json", "line 1, column 1"}));
+
+  const std::string huge = writeText("{\n \"version\": 1e400 }", "huge.json");
+  EXPECT_TRUE(contains(errorOfFile(huge), {"huge.json", "line 2, column 13", "overflow"}));
+}
+
+TEST_F(SceneLoaderTest, KeyWrittenTwiceIsAnError) {
+  std::string text = exampleScene().dump(2);
+  text.replace(text.find("\"dx\""), 4, "\"dx\": 0.02, \"dx\"");
+  EXPECT_TRUE(contains(errorOfFile(writeText(text)), {"scene.json: domain.dx", "duplicate key"}));
+
+  text = exampleScene().dump(2);
+  text.replace(text.find("\"radius\""), 8, "\"radius\": 1, \"radius\"");
+  EXPECT_TRUE(contains(errorOfFile(writeText(text)), {"objects[2].shape.sphere.radius"}));
+}
+
+TEST_F(SceneLoaderTest, TopLevelMustBeAnObject) {
+  EXPECT_TRUE(contains(errorOfFile(writeText("[1, 2]")), {"scene.json", "expected an object"}));
+  EXPECT_TRUE(contains(parseError(json(3)), {"virtual.json", "expected an object, got 3"}));
+}
+
+// Unknown keys and typos
+
+TEST_F(SceneLoaderTest, MisspeltRequiredKeyIsNamedWithTheFix) {
+  json j = exampleScene();
+  j["materials"]["sand"]["youngs_modulu"] = j["materials"]["sand"]["youngs_modulus"];
+  const std::string msg = error(without(j, "/materials/sand/youngs_modulus"));
+  EXPECT_TRUE(contains(msg, {"scene.json: materials.sand.youngs_modulu: unknown key",
+                             "did you mean \"youngs_modulus\"", "required"}));
+  json top = exampleScene();
+  top["objets"] = top["objects"];
+  EXPECT_TRUE(contains(error(without(top, "/objects")),
+                       {"scene.json: objets: unknown key", "did you mean \"objects\""}));
+  // With nothing like it present, the key is reported missing.
+  EXPECT_TRUE(contains(error(without(exampleScene(), "/materials/sand/youngs_modulus")),
+                       {"scene.json: materials.sand.youngs_modulus: missing required key",
+                        "expected a positive number"}));
+}
+
+TEST_F(SceneLoaderTest, MisspeltOptionalKeySuggestsTheClosestKey) {
+  EXPECT_TRUE(contains(error(with(exampleScene(), "/solver/cfll", 0.3)),
+                       {"scene.json: solver.cfll", "unknown key", "did you mean \"cfl\""}));
+  EXPECT_TRUE(contains(error(with(exampleScene(), "/gravty", json::array({0, 0, 0}))),
+                       {"scene.json: gravty", "did you mean \"gravity\""}));
+  EXPECT_TRUE(contains(error(with(exampleScene(), "/objects/0/velocty", json::array({0, 0, 0}))),
+                       {"objects[0].velocty", "did you mean \"velocity\""}));
+  EXPECT_TRUE(contains(error(with(exampleScene(), "/domain/boundary/frction", 0.1)),
+                       {"domain.boundary.frction", "did you mean \"friction\""}));
+  EXPECT_TRUE(contains(error(with(exampleScene(), "/render/camera/fov", 30)),
+                       {"render.camera.fov", "did you mean \"fov_deg\""}));
+  EXPECT_TRUE(contains(error(with(exampleScene(), "/objects/1/shape/mesh/scael", 2)),
+                       {"objects[1].shape.mesh.scael", "did you mean \"scale\""}));
+}
+
+TEST_F(SceneLoaderTest, UnknownKeyFarFromEveryKeyListsTheValidOnes) {
+  EXPECT_TRUE(contains(error(with(exampleScene(), "/output/compress", true)),
+                       {"output.compress", "valid keys here", "\"dir\"", "\"png\""}));
+  EXPECT_TRUE(contains(error(with(exampleScene(), "/objects/0/shape/cylinder", json::object())),
+                       {"objects[0].shape.cylinder", "\"box\"", "\"mesh\"", "\"sphere\""}));
+}
+
+TEST_F(SceneLoaderTest, ParameterOfAnotherModelIsAnUnknownKey) {
+  json j = exampleScene();
+  j["materials"]["jelly"]["friction_angle_deg"] = 30;
+  EXPECT_TRUE(contains(error(j), {"materials.jelly.friction_angle_deg", "unknown key",
+                                  "model \"fixed_corotated\"", "drucker_prager"}));
+
+  j = exampleScene();
+  j["materials"]["water"] = {
+      {"model", "water"}, {"density", 1000}, {"bulk_modulus", 1e5}, {"youngs_modulus", 1e5}};
+  EXPECT_TRUE(contains(error(j), {"materials.water.youngs_modulus", "model \"water\""}));
+
+  j = exampleScene();
+  j["materials"]["jelly"]["gamma"] = 7;
+  EXPECT_TRUE(contains(error(j), {"materials.jelly.gamma", "water"}));
+}
+
+TEST_F(SceneLoaderTest, KeyOfAnotherObjectKindIsAnUnknownKey) {
+  EXPECT_TRUE(contains(error(with(exampleScene(), "/objects/0/density", 1000)),
+                       {"objects[0].density", "kind \"mpm\"", "only rigid objects"}));
+  EXPECT_TRUE(contains(error(with(exampleScene(), "/objects/1/material", "sand")),
+                       {"objects[1].material", "kind \"rigid\""}));
+  EXPECT_TRUE(contains(error(with(exampleScene(), "/objects/0/friction", 0.2)),
+                       {"objects[0].friction", "kind \"mpm\""}));
+  EXPECT_TRUE(contains(error(with(exampleScene(), "/objects/3/fixed", true)),
+                       {"objects[3].fixed", "kind \"elastic\""}));
+}
+
+TEST_F(SceneLoaderTest, FlipRatioOnlyWithFlipTransfer) {
+  EXPECT_TRUE(contains(error(with(exampleScene(), "/solver/flip_ratio", 0.9)),
+                       {"solver.flip_ratio", "transfer is \"flip\""}));
+}
+
+TEST_F(SceneLoaderTest, MisspeltChoiceSuggestsTheClosest) {
+  EXPECT_TRUE(contains(error(with(exampleScene(), "/domain/boundary/type", "slpi")),
+                       {"domain.boundary.type", "\"slip\", \"sticky\", \"separate\"",
+                        "got \"slpi\"", "did you mean \"slip\""}));
+  EXPECT_TRUE(contains(error(with(exampleScene(), "/materials/sand/model", "drucker-prager")),
+                       {"materials.sand.model", "did you mean \"drucker_prager\""}));
+  EXPECT_TRUE(contains(error(with(exampleScene(), "/objects/2/kind", "rigit")),
+                       {"objects[2].kind", "did you mean \"rigid\""}));
+}
+
+// References and names
+
+TEST_F(SceneLoaderTest, UnknownMaterialReferenceListsTheKnownOnes) {
+  EXPECT_TRUE(contains(error(with(exampleScene(), "/objects/0/material", "snad")),
+                       {"scene.json: objects[0].material", "\"snad\"", "\"jelly\", \"sand\"",
+                        "did you mean \"sand\""}));
+  EXPECT_TRUE(contains(error(without(exampleScene(), "/objects/3/material")),
+                       {"objects[3].material", "missing required key"}));
+}
+
+TEST_F(SceneLoaderTest, ElasticObjectNeedsAnElasticMaterial) {
+  EXPECT_TRUE(
+      contains(error(with(exampleScene(), "/objects/3/material", "sand")),
+               {"objects[3].material", "fixed_corotated or neo_hookean", "drucker_prager"}));
+}
+
+TEST_F(SceneLoaderTest, DuplicateObjectNamesAreAnError) {
+  EXPECT_TRUE(contains(error(with(exampleScene(), "/objects/2/name", "pile")),
+                       {"scene.json: objects[2].name", "\"pile\"", "objects[0]"}));
+}
+
+TEST_F(SceneLoaderTest, NamesMustBeSafeForFiles) {
+  EXPECT_TRUE(contains(error(with(exampleScene(), "/name", "my scene")),
+                       {"scene.json: name", "\"my scene\"", "A-Z"}));
+  EXPECT_TRUE(contains(error(with(exampleScene(), "/name", "..")), {"scene.json: name"}));
+  EXPECT_TRUE(contains(error(with(exampleScene(), "/objects/1/name", "a/b")), {"objects[1].name"}));
+  EXPECT_TRUE(contains(error(with(exampleScene(), "/name", "")), {"name", "non-empty"}));
+}
+
+// Types and ranges
+
+struct BadValue {
+  std::string pointer;  // JSON pointer of the value to replace
+  json value;
+  std::vector<std::string> expected;  // substrings of the message
+};
+
+void PrintTo(const BadValue& b, std::ostream* os) {
+  *os << b.pointer << " = " << b.value.dump();
+}
+
+class BadValueTest : public SceneLoaderTest, public ::testing::WithParamInterface<BadValue> {};
+
+TEST_P(BadValueTest, IsAnInputErrorNamingKeyAndValue) {
+  const BadValue& b = GetParam();
+  const std::string msg = error(with(exampleScene(), b.pointer, b.value));
+  EXPECT_TRUE(contains(msg, {"scene.json"}));
+  for (const std::string& part : b.expected) EXPECT_TRUE(contains(msg, {part}));
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    WrongTypes, BadValueTest,
+    ::testing::Values(
+        BadValue{"/version", "1", {"version", "expected an integer", "a string (\"1\")"}},
+        BadValue{"/domain/dx", "0.01", {"domain.dx", "expected a positive number", "string"}},
+        BadValue{"/gravity",
+                 json::array({0, -9.81}),
+                 {"gravity", "expected an array of 3 numbers", "array of 2 elements"}},
+        BadValue{"/domain/min", "origin", {"domain.min", "array of 3 numbers", "a string"}},
+        BadValue{"/domain/max", json::array({1, "1", 1}), {"domain.max", "array of 3 numbers"}},
+        BadValue{"/objects/1/fixed", 1, {"objects[1].fixed", "expected true or false", "got 1"}},
+        BadValue{"/output/png", "yes", {"output.png", "true or false"}},
+        BadValue{"/output/dir", 3, {"output.dir", "expected a string", "got 3"}},
+        BadValue{"/materials", json::array(), {"materials", "expected an object"}},
+        BadValue{"/materials/sand", 3, {"materials.sand", "expected an object", "got 3"}},
+        BadValue{"/objects", json::object(), {"objects", "expected an array of objects"}},
+        BadValue{"/objects/0", "pile", {"objects[0]", "expected an object"}},
+        BadValue{"/objects/0/shape", json::array(), {"objects[0].shape", "expected an object"}},
+        BadValue{"/render/resolution",
+                 json::array({640.5, 360}),
+                 {"render.resolution[0]", "expected an integer", "640.5"}},
+        BadValue{"/solver/transfer", 1, {"solver.transfer", "expected one of", "got 1"}},
+        BadValue{"/frames", 48, {"frames", "expected an object", "got 48"}}));
+
+INSTANTIATE_TEST_SUITE_P(
+    OutOfRange, BadValueTest,
+    ::testing::Values(
+        BadValue{"/version", 2, {"version", "expected 1", "got 2"}},
+        BadValue{"/domain/dx", -0.01, {"domain.dx", "expected a positive number, got -0.01"}},
+        BadValue{"/domain/dx", 0.3, {"domain.dx", "at least 4 cells", "0.25"}},
+        BadValue{"/domain/dx", 1e-9, {"domain.dx", "at most 4194304 cells"}},
+        BadValue{"/domain/max", json::array({1, 0, 1}), {"domain.max", "greater than min"}},
+        BadValue{"/domain/boundary/friction", -1, {"domain.boundary.friction", "non-negative"}},
+        BadValue{"/frames/count", -1, {"frames.count", "non-negative integer", "got -1"}},
+        BadValue{"/frames/count", 2.5, {"frames.count", "integer", "got 2.5"}},
+        BadValue{"/frames/fps", 0, {"frames.fps", "positive"}},
+        BadValue{"/solver/cfl", 1.5, {"solver.cfl", "in (0, 1]", "got 1.5"}},
+        BadValue{"/solver/cfl", 0, {"solver.cfl", "in (0, 1]"}},
+        BadValue{"/solver/max_dt", 0, {"solver.max_dt", "positive"}},
+        BadValue{"/solver/particles_per_cell", 0, {"solver.particles_per_cell", "[1, 64]"}},
+        BadValue{"/solver/particles_per_cell", 65, {"solver.particles_per_cell", "got 65"}},
+        BadValue{"/solver/particles_per_cell", 8.5, {"solver.particles_per_cell", "got 8.5"}},
+        BadValue{"/solver/particles_per_cell", 1e12, {"particles_per_cell", "integer"}},
+        BadValue{"/materials/sand/density", 0, {"materials.sand.density", "positive", "got 0"}},
+        BadValue{
+            "/materials/sand/youngs_modulus", -5, {"materials.sand.youngs_modulus", "positive"}},
+        BadValue{"/materials/jelly/poisson_ratio",
+                 0.5,
+                 {"materials.jelly.poisson_ratio", "in [0, 0.5)", "got 0.5"}},
+        BadValue{"/materials/sand/friction_angle_deg",
+                 90,
+                 {"materials.sand.friction_angle_deg", "[0, 90)"}},
+        BadValue{"/materials/sand/cohesion", -1, {"materials.sand.cohesion", "non-negative"}},
+        BadValue{"/objects/1/density", -2500, {"objects[1].density", "positive"}},
+        BadValue{"/objects/2/friction", -0.1, {"objects[2].friction", "non-negative"}},
+        BadValue{"/objects/2/shape/sphere/radius", 0, {"objects[2].shape.sphere.radius"}},
+        BadValue{"/objects/0/shape/box/max",
+                 json::array({0.4, 0.0, 0.4}),
+                 {"objects[0].shape.box.max", "greater than min"}},
+        BadValue{"/objects/1/shape/mesh/scale", 0, {"objects[1].shape.mesh.scale", "positive"}},
+        BadValue{
+            "/objects/1/velocity", json::array({1, 0, 0}), {"objects[1].velocity", "fixed object"}},
+        BadValue{"/render/resolution",
+                 json::array({8, 360}),
+                 {"render.resolution[0]", "[16, 8192]", "got 8"}},
+        BadValue{"/render/camera/fov_deg", 180, {"render.camera.fov_deg", "(0, 180)"}},
+        BadValue{"/render/camera/target",
+                 json::array({2.0, 1.2, 2.0}),
+                 {"render.camera.target", "other than eye"}}));
+
+TEST(SceneMaterialRanges, SnowAndWaterParametersAreChecked) {
+  json j = minimalScene();
+  j["materials"]["m"] = {{"model", "snow"},
+                         {"density", 400},
+                         {"youngs_modulus", 1.4e5},
+                         {"poisson_ratio", 0.2},
+                         {"critical_compression", 1}};
+  EXPECT_TRUE(
+      contains(parseError(j), {"virtual.json: materials.m.critical_compression", "(0, 1)"}));
+  j["materials"]["m"] = {
+      {"model", "water"}, {"density", 1000}, {"bulk_modulus", 1e5}, {"gamma", 0.5}};
+  EXPECT_TRUE(contains(parseError(j), {"materials.m.gamma", "a number >= 1, got 0.5"}));
+  j["materials"]["m"].erase("bulk_modulus");
+  EXPECT_TRUE(contains(parseError(j), {"materials.m.bulk_modulus", "missing required key"}));
+}
+
+// Shapes and files
+
+TEST_F(SceneLoaderTest, MissingMeshFileNamesKeyAndResolvedPath) {
+  const std::string msg =
+      error(with(exampleScene(), "/objects/1/shape/mesh/path", "meshes/gone.obj"));
+  EXPECT_TRUE(contains(msg, {"scene.json: objects[1].shape.mesh.path",
+                             (dir_ / "meshes" / "gone.obj").lexically_normal().string()}));
+  EXPECT_TRUE(contains(error(with(exampleScene(), "/objects/1/shape/mesh/path", "meshes")),
+                       {"objects[1].shape.mesh.path", "not a file"}));
+}
+
+TEST_F(SceneLoaderTest, ShapeNeedsExactlyOneKind) {
+  EXPECT_TRUE(contains(error(with(exampleScene(), "/objects/0/shape", json::object())),
+                       {"objects[0].shape", "exactly one of", "got none"}));
+  json j = with(exampleScene(), "/objects/2/shape/box",
+                json::parse(R"({"min": [0, 0, 0], "max": [1, 1, 1]})"));
+  EXPECT_TRUE(contains(error(j), {"objects[2].shape", "\"box\" and \"sphere\""}));
+  EXPECT_TRUE(contains(error(without(exampleScene(), "/objects/2/shape")),
+                       {"objects[2].shape", "missing required key"}));
+}
+
+TEST_F(SceneLoaderTest, ShapeMustReachIntoTheDomain) {
+  json j = with(exampleScene(), "/objects/0/shape/box/min", json::array({2, 0, 0}));
+  j = with(j, "/objects/0/shape/box/max", json::array({3, 1, 1}));
+  EXPECT_TRUE(contains(error(j), {"objects[0].shape", "inside the domain"}));
+  EXPECT_TRUE(contains(
+      error(with(exampleScene(), "/objects/2/shape/sphere/center", json::array({0.5, -0.1, 0.5}))),
+      {"objects[2].shape", "inside the domain"}));
+  // A sphere poking in from outside is fine.
+  EXPECT_NO_THROW(
+      load(with(exampleScene(), "/objects/2/shape/sphere/center", json::array({0.5, -0.05, 0.5}))));
+}
+
+TEST_F(SceneLoaderTest, RequiredSectionsAndObjects) {
+  EXPECT_TRUE(contains(error(without(exampleScene(), "/domain")),
+                       {"scene.json: domain", "missing required key"}));
+  EXPECT_TRUE(contains(error(without(exampleScene(), "/domain/dx")), {"domain.dx", "missing"}));
+  EXPECT_TRUE(contains(error(with(exampleScene(), "/objects", json::array())),
+                       {"scene.json: objects", "non-empty array"}));
+  EXPECT_TRUE(contains(error(without(exampleScene(), "/version")), {"version", "missing"}));
+  EXPECT_TRUE(contains(error(without(exampleScene(), "/objects/1/density")),
+                       {"objects[1].density", "missing"}));
+}
+
+// The dictionary itself
+
+TEST(ParamDict, EditDistanceAndClosestMatch) {
+  EXPECT_EQ(editDistance("", ""), 0u);
+  EXPECT_EQ(editDistance("youngs_modulu", "youngs_modulus"), 1u);
+  EXPECT_EQ(editDistance("kitten", "sitting"), 3u);
+  EXPECT_EQ(editDistance("Density", "density"), 1u);
+  EXPECT_EQ(closestMatch("youngs_modulu", {"density", "youngs_modulus"}), "youngs_modulus");
+  EXPECT_EQ(closestMatch("dy", {"dx", "min", "max"}), "dx");
+  EXPECT_EQ(closestMatch("fov", {"eye", "fov_deg", "target"}), "fov_deg");
+  EXPECT_FALSE(closestMatch("compress", {"dir", "ply", "vdb", "png"}).has_value());
+}
+
+TEST(ParamDict, RangesDescribeThemselves) {
+  EXPECT_EQ(Range::positive().describe(), "a positive number");
+  EXPECT_EQ(Range::nonNegative().describe("integer"), "a non-negative integer");
+  EXPECT_EQ(Range::closed(1, 64).describe("integer"), "an integer in [1, 64]");
+  EXPECT_EQ(Range::closedOpen(0, 0.5).describe(), "a number in [0, 0.5)");
+  EXPECT_EQ(Range::atLeast(1).describe(), "a number >= 1");
+  EXPECT_TRUE(Range::openClosed(0, 1).contains(1));
+  EXPECT_FALSE(Range::openClosed(0, 1).contains(0));
+}
+
+TEST(ParamDict, TracksPathsReadsAndUnknownKeys) {
+  const json j = json::parse(R"({"a": {"b": [{"c": 1}, {"c": "x"}]}, "d": 2, "e": 3})");
+  const ParamDict root(j, "f.json");
+  const ParamDict a = root.requireDict("a");
+  const std::vector<ParamDict> items = a.requireDictArray("b");
+  ASSERT_EQ(items.size(), 2u);
+  EXPECT_EQ(items[1].where("c"), "f.json: a.b[1].c");
+  EXPECT_EQ(items[0].requireInt("c"), 1);
+  EXPECT_THROW(items[1].requireInt("c"), InputError);
+  EXPECT_EQ(root.getDouble("d", 0), 2.0);
+  EXPECT_EQ(root.getDouble("missing", 5), 5.0);
+  EXPECT_EQ(root.unknownKeys(), std::vector<std::string>{"e"});
+  try {
+    root.checkUnknownKeys();
+    ADD_FAILURE() << "expected an InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.where(), "f.json: e");
+  }
+  // Copies share the record of what was read.
+  const ParamDict copy = root;
+  (void)copy.has("e");
+  EXPECT_NO_THROW(root.checkUnknownKeys());
+}
+
+}  // namespace
+}  // namespace triad

@@ -1,0 +1,180 @@
+// The blocked sparse grid: binning, layout and conservation of the transfers.
+#include <gtest/gtest.h>
+#include <omp.h>
+
+#include <random>
+#include <set>
+
+#include "sim/grid_update.h"
+#include "sim/particles.h"
+#include "sim/sparse_grid.h"
+#include "sim/transfer.h"
+
+namespace triad {
+namespace {
+
+TEST(SparseGrid, PackRoundTripsNegativeCoordinates) {
+  for (const Vec3i b : {Vec3i(0, 0, 0), Vec3i(-1, 2, -3), Vec3i(1000, -1000, 7),
+                        Vec3i(-(1 << 20), (1 << 20) - 1, 0)})
+    EXPECT_EQ(unpackBlock(packBlock(b)), b);
+  // Key order is x-major, so sorted keys walk blocks in memory order.
+  EXPECT_LT(packBlock(Vec3i(0, 5, 5)), packBlock(Vec3i(1, -5, -5)));
+  EXPECT_LT(packBlock(Vec3i(0, -1, 5)), packBlock(Vec3i(0, 0, -5)));
+}
+
+ParticleSet randomSet(int n, unsigned seed, float lo, float hi, const Material& model) {
+  ParticleSet s;
+  s.model = model;
+  s.mass = 0.01f;
+  s.volume = 1e-5f;
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(lo, hi), uv(-1.0f, 1.0f);
+  for (int i = 0; i < n; ++i) {
+    s.push(Vec3f(u(rng), u(rng), u(rng)), Vec3f(uv(rng), uv(rng), uv(rng)), seed * 100000 + i, 0);
+    for (int k = 0; k < 9; ++k) s.C.back().data()[k] = uv(rng);
+  }
+  return s;
+}
+
+struct GridFixture {
+  std::vector<ParticleSet> sets;
+  TransferParams p;
+  GridLayout layout;
+  Binner binner;
+};
+
+GridFixture makeSetup() {
+  GridFixture s;
+  s.sets.push_back(randomSet(3000, 1, -0.13f, 0.21f, FixedCorotated<float>{10.0f, 10.0f}));
+  s.sets.push_back(randomSet(2000, 2, 0.05f, 0.4f, Water<float>{1e3f, 7.0f, 0.0f}));
+  s.p.dx = 0.01f;
+  s.p.inv_dx = 1.0f / s.p.dx;
+  s.p.shifted_origin = Vec3f::Constant(-0.5f + 0.5f * s.p.dx);
+  s.p.dt = 1e-4f;
+  s.p.domain_lo = Vec3f::Constant(-1.0f);
+  s.p.domain_hi = Vec3f::Constant(1.0f);
+  s.binner.bin(s.sets, s.p.shifted_origin, s.p.inv_dx, s.layout);
+  return s;
+}
+
+TEST(SparseGrid, BinningSortsParticlesIntoTheirBlocks) {
+  GridFixture s = makeSetup();
+  const GridLayout& L = s.layout;
+  std::set<uint32_t> ids;
+  for (size_t k = 0; k < s.sets.size(); ++k) {
+    const ParticleSet& set = s.sets[k];
+    ASSERT_EQ(L.offsets[k].back(), set.size());
+    for (size_t pb = 0; pb < L.particleBlocks(); ++pb)
+      for (uint32_t i = L.offsets[k][pb]; i < L.offsets[k][pb + 1]; ++i) {
+        const Vec3i base = baseNode(set.x[i], s.p.shifted_origin, s.p.inv_dx);
+        const Vec3i b(blockOf(base.x()), blockOf(base.y()), blockOf(base.z()));
+        ASSERT_EQ(packBlock(b), L.particle_keys[pb]);
+      }
+    for (uint32_t id : set.id) ids.insert(id);
+  }
+  EXPECT_EQ(ids.size(), 5000u) << "the permutation lost or duplicated particles";
+  // Neighbours are the + side blocks, and colours partition the particle blocks.
+  size_t coloured = 0;
+  for (int c = 0; c < 8; ++c) {
+    coloured += L.colour_blocks[c].size();
+    for (uint32_t pb : L.colour_blocks[c]) {
+      const Vec3i b = unpackBlock(L.particle_keys[pb]);
+      EXPECT_EQ(((b.x() & 1) << 2) | ((b.y() & 1) << 1) | (b.z() & 1), c);
+      for (int d = 0; d < 8; ++d)
+        EXPECT_EQ(L.grid_keys[L.neighbours[pb][d]],
+                  packBlock(b + Vec3i((d >> 2) & 1, (d >> 1) & 1, d & 1)));
+    }
+  }
+  EXPECT_EQ(coloured, L.particleBlocks());
+}
+
+TEST(SparseGrid, MemoryFollowsParticlesNotDomain) {
+  // The same cluster of particles in a small and in a huge domain gives the
+  // same number of grid blocks.
+  GridFixture s = makeSetup();
+  const size_t blocks = s.layout.gridBlocks();
+  for (ParticleSet& set : s.sets)
+    for (Vec3f& x : set.x) x += Vec3f(500.0f, -300.0f, 250.0f);
+  GridLayout far;
+  s.binner.bin(s.sets, s.p.shifted_origin, s.p.inv_dx, far);
+  EXPECT_NEAR(double(far.gridBlocks()), double(blocks), 0.15 * blocks);
+  EXPECT_LE(blocks, 8 * s.layout.particleBlocks()) << "grid blocks beyond the particles' stencils";
+}
+
+TEST(SparseGrid, TransfersConserveMassAndMomentum) {
+  GridFixture s = makeSetup();
+  double mass = 0;
+  Vec3d momentum = Vec3d::Zero();
+  for (const ParticleSet& set : s.sets)
+    for (size_t i = 0; i < set.size(); ++i) {
+      mass += set.mass;
+      momentum += set.mass * set.v[i].cast<double>();
+    }
+  computeAffine(s.sets, s.p);
+  std::vector<GridNode> grid;
+  particlesToGrid(s.sets, s.layout, s.p, grid, nullptr);
+  double gm = 0;
+  Vec3d gp = Vec3d::Zero();
+  for (const GridNode& n : grid) {
+    gm += n.m;
+    gp += Vec3d(n.v[0], n.v[1], n.v[2]);
+  }
+  EXPECT_NEAR(gm, mass, 1e-5 * mass);
+  // The affine and stress terms carry no net momentum: sum_i w_ip (x_i - x_p) = 0.
+  for (int d = 0; d < 3; ++d) EXPECT_NEAR(gp[d], momentum[d], 1e-4 * mass);
+
+  // G2P of the updated grid (no gravity, no walls reached) returns the momentum.
+  WallConditions walls;
+  walls.lo = Vec3i::Constant(-100000);
+  walls.hi = Vec3i::Constant(100000);
+  updateGrid(s.layout, grid, nullptr, Vec3f::Zero(), s.p.dt, walls);
+  gridToParticles(s.sets, s.layout, s.p, grid, nullptr);
+  Vec3d after = Vec3d::Zero();
+  for (const ParticleSet& set : s.sets)
+    for (size_t i = 0; i < set.size(); ++i) after += set.mass * set.v[i].cast<double>();
+  for (int d = 0; d < 3; ++d) EXPECT_NEAR(after[d], momentum[d], 1e-4 * mass);
+}
+
+TEST(SparseGrid, ScatterIsIdenticalForAnyThreadCount) {
+  std::vector<std::vector<GridNode>> grids;
+  for (int threads : {1, 2, 3}) {
+    omp_set_num_threads(threads);
+    GridFixture s = makeSetup();
+    computeAffine(s.sets, s.p);
+    std::vector<GridNode> grid;
+    particlesToGrid(s.sets, s.layout, s.p, grid, nullptr);
+    grids.push_back(grid);
+  }
+  omp_set_num_threads(omp_get_num_procs());
+  for (size_t k = 1; k < grids.size(); ++k) {
+    ASSERT_EQ(grids[k].size(), grids[0].size());
+    EXPECT_EQ(std::memcmp(grids[k].data(), grids[0].data(), grids[0].size() * sizeof(GridNode)), 0);
+  }
+}
+
+TEST(GridUpdate, WallsFollowTheirType) {
+  const Vec3f n(0, 1, 0);
+  Vec3f v(1.0f, -2.0f, 0.0f);
+  applyWall(v, n, BoundaryType::Slip, 0.0f);
+  EXPECT_EQ(v, Vec3f(1.0f, 0.0f, 0.0f));
+  // Coulomb: the tangential speed drops by mu |v_n| and never reverses.
+  v = Vec3f(1.0f, -2.0f, 0.0f);
+  applyWall(v, n, BoundaryType::Slip, 0.25f);
+  EXPECT_NEAR(v.x(), 0.5f, 1e-6f);
+  v = Vec3f(1.0f, -2.0f, 0.0f);
+  applyWall(v, n, BoundaryType::Slip, 2.0f);
+  EXPECT_EQ(v, Vec3f::Zero());
+  // Leaving: slip holds the material, separate lets it go.
+  v = Vec3f(1.0f, 2.0f, 0.0f);
+  applyWall(v, n, BoundaryType::Slip, 0.5f);
+  EXPECT_EQ(v, Vec3f(1.0f, 0.0f, 0.0f));
+  v = Vec3f(1.0f, 2.0f, 0.0f);
+  applyWall(v, n, BoundaryType::Separate, 0.5f);
+  EXPECT_EQ(v, Vec3f(1.0f, 2.0f, 0.0f));
+  v = Vec3f(1.0f, -2.0f, 3.0f);
+  applyWall(v, n, BoundaryType::Sticky, 0.0f);
+  EXPECT_EQ(v, Vec3f::Zero());
+}
+
+}  // namespace
+}  // namespace triad
