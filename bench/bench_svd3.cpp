@@ -1,8 +1,11 @@
-// Microbenchmark for sim/svd3.h, run by hand (not part of the CMake build):
-//   g++ -std=c++17 -O3 -march=native -I. -I/usr/include/eigen3
-//       bench/bench_svd3.cpp -o /tmp/bench_svd3 && /tmp/bench_svd3
-// Reports ns per call over a batch of independent matrices (the solver's
-// access pattern: one decomposition per particle).
+// Microbenchmark for sim/svd3.h and the material stress paths, run by hand
+// (deliberately not in the CMake build):
+//   g++ -std=c++17 -O3 -march=native -I. -isystem /usr/include/eigen3
+//       bench/bench_svd3.cpp sim/materials.cpp -o /tmp/bench_svd3
+//   /tmp/bench_svd3
+// Reports the best of several runs, in ns per matrix, over 16k independent
+// matrices: the solver's access pattern (one decomposition per particle).
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <random>
@@ -11,6 +14,7 @@
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
 
+#include "sim/materials.h"
 #include "sim/svd3.h"
 
 using triad::Mat3f;
@@ -18,8 +22,8 @@ using triad::Vec3f;
 
 namespace {
 
-// Deformation gradients as the solver sees them: rotation times a stretch
-// near identity, with a few percent of random shear.
+// Deformation gradients as the solver sees them: a rotation times a stretch
+// near identity (noise ~0.05), or general matrices (noise 1).
 std::vector<Mat3f> makeInputs(int n, float noise, unsigned seed) {
   std::mt19937 rng(seed);
   std::normal_distribution<float> g(0.0f, 1.0f);
@@ -33,19 +37,29 @@ std::vector<Mat3f> makeInputs(int n, float noise, unsigned seed) {
   return out;
 }
 
-template <class Fn>
-double timeNs(const std::vector<Mat3f>& in, int reps, Fn&& fn) {
-  float sink = 0.0f;
+// Best time per element of `run` (which processes all n elements).
+template <class Run>
+double bestNs(int n, int reps, Run&& run) {
   double best = 1e30;
   for (int r = 0; r < reps; ++r) {
     const auto t0 = std::chrono::steady_clock::now();
-    for (const Mat3f& F : in) sink += fn(F);
+    run();
     const auto t1 = std::chrono::steady_clock::now();
-    best = std::min(best, std::chrono::duration<double, std::nano>(t1 - t0).count() / in.size());
+    best = std::min(best, std::chrono::duration<double, std::nano>(t1 - t0).count() / n);
   }
+  return best;
+}
+
+// Per-call loop over the inputs; the sink keeps the work alive.
+template <class Fn>
+double perCallNs(const std::vector<Mat3f>& in, int reps, Fn&& fn) {
+  float sink = 0.0f;
+  const double t = bestNs(int(in.size()), reps, [&] {
+    for (const Mat3f& F : in) sink += fn(F);
+  });
   volatile float keep = sink;
   (void)keep;
-  return best;
+  return t;
 }
 
 }  // namespace
@@ -54,45 +68,76 @@ int main() {
   const int n = 1 << 14;
   for (const float noise : {0.05f, 1.0f}) {
     const std::vector<Mat3f> in = makeInputs(n, noise, 7);
-    const double t_svd = timeNs(in, 20, [](const Mat3f& F) {
+    std::printf("inputs: rotation * (I + %.2f * gaussian)\n", noise);
+
+    // Decompositions, one call per matrix
+    const double t_svd = perCallNs(in, 20, [](const Mat3f& F) {
       Mat3f U, V;
       Vec3f s;
       triad::svd3(F, U, s, V);
       return U(0, 1) + V(2, 0) + s(2);
     });
-    const double t_polar = timeNs(in, 20, [](const Mat3f& F) {
+    const double t_polar = perCallNs(in, 20, [](const Mat3f& F) {
       const Mat3f R = triad::polarRotation(F);
       return R(0, 1) + R(2, 2);
     });
-    const double t_eigen = timeNs(in, 5, [](const Mat3f& F) {
+    const double t_eigen = perCallNs(in, 5, [](const Mat3f& F) {
       const Eigen::JacobiSVD<Mat3f> svd(F, Eigen::ComputeFullU | Eigen::ComputeFullV);
       return svd.matrixU()(0, 1) + svd.matrixV()(2, 0) + svd.singularValues()(2);
     });
-    std::vector<Mat3f> U(n), V(n), R(n);
+    std::printf("  svd3<float>              %6.1f ns\n", t_svd);
+    std::printf("  polarRotation<float>     %6.1f ns\n", t_polar);
+    std::printf("  Eigen JacobiSVD<Matrix3f> %5.1f ns\n", t_eigen);
+
+    // Decompositions, batched
+    std::vector<Mat3f> U(n), V(n), R(n), tau(n), work(n);
     std::vector<Vec3f> S(n);
-    double t_batch = 1e30, t_polar_batch = 1e30;
-    for (int r = 0; r < 20; ++r) {
-      auto t0 = std::chrono::steady_clock::now();
-      triad::svd3Batch(n, in.data(), U.data(), S.data(), V.data());
-      auto t1 = std::chrono::steady_clock::now();
-      triad::polarRotationBatch(n, in.data(), R.data());
-      auto t2 = std::chrono::steady_clock::now();
-      t_batch = std::min(t_batch, std::chrono::duration<double, std::nano>(t1 - t0).count() / n);
-      t_polar_batch =
-          std::min(t_polar_batch, std::chrono::duration<double, std::nano>(t2 - t1).count() / n);
-    }
+    std::vector<float> jp(n);
+    const double t_svd_batch =
+        bestNs(n, 20, [&] { triad::svd3Batch(n, in.data(), U.data(), S.data(), V.data()); });
+    const double t_polar_batch =
+        bestNs(n, 20, [&] { triad::polarRotationBatch(n, in.data(), R.data()); });
     float worst = 0.0f;
     for (int i = 0; i < n; ++i) {
       const Mat3f E = U[i] * S[i].asDiagonal() * V[i].transpose() - in[i];
       worst = std::max(worst, E.norm() / in[i].norm());
     }
-    std::printf(
-        "noise %.2f: svd3Batch %.1f ns  polarRotationBatch %.1f ns  (worst rel. error %.1e)\n",
-        noise, t_batch, t_polar_batch, worst);
-    std::printf(
-        "noise %.2f: svd3<float> %.1f ns  polarRotation<float> %.1f ns  "
-        "Eigen JacobiSVD<Matrix3f> %.1f ns\n",
-        noise, t_svd, t_polar, t_eigen);
+    std::printf("  svd3Batch                %6.1f ns  (worst |USV^T - F| / |F| = %.1e)\n",
+                t_svd_batch, worst);
+    std::printf("  polarRotationBatch       %6.1f ns\n", t_polar_batch);
+
+    // Material stress paths, single calls versus batches
+    const auto fc = triad::FixedCorotated<float>::fromYoungPoisson(1e5f, 0.3f);
+    triad::Snow<float> snow;
+    snow.elastic = fc;
+    const triad::DruckerPrager<float> sand(1e5f, 0.3f, 30.0f, 0.0f);
+    const double t_fc = perCallNs(in, 10, [&](const Mat3f& F) { return fc.kirchhoff(F)(0, 1); });
+    const double t_fc_batch =
+        bestNs(n, 10, [&] { triad::kirchhoffBatch(fc, n, in.data(), tau.data()); });
+    const double t_snow = bestNs(n, 10, [&] {
+      work = in;
+      std::fill(jp.begin(), jp.end(), 1.0f);
+      for (int i = 0; i < n; ++i) tau[i] = snow.projectAndKirchhoff(work[i], jp[i]);
+    });
+    const double t_snow_batch = bestNs(n, 10, [&] {
+      work = in;
+      std::fill(jp.begin(), jp.end(), 1.0f);
+      triad::projectAndKirchhoffBatch(snow, n, work.data(), jp.data(), tau.data());
+    });
+    const double t_sand = bestNs(n, 10, [&] {
+      work = in;
+      for (int i = 0; i < n; ++i) tau[i] = sand.projectAndKirchhoff(work[i]);
+    });
+    const double t_sand_batch = bestNs(n, 10, [&] {
+      work = in;
+      triad::projectAndKirchhoffBatch(sand, n, work.data(), tau.data());
+    });
+    std::printf("  FixedCorotated::kirchhoff             %6.1f ns, kirchhoffBatch %6.1f ns\n", t_fc,
+                t_fc_batch);
+    std::printf("  Snow::projectAndKirchhoff             %6.1f ns, batch %6.1f ns\n", t_snow,
+                t_snow_batch);
+    std::printf("  DruckerPrager::projectAndKirchhoff    %6.1f ns, batch %6.1f ns\n", t_sand,
+                t_sand_batch);
   }
   return 0;
 }

@@ -6,6 +6,6 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
 scripts/build.sh release
-(cd build && ctest --output-on-failure -j 2)
+(cd build && ctest --output-on-failure)
 scripts/build.sh sanitize triad_unit_tests
-(cd build-sanitize && ASAN_OPTIONS=detect_leaks=1 ctest --output-on-failure -j 2 -L unit)
+(cd build-sanitize && ASAN_OPTIONS=detect_leaks=1 ctest --output-on-failure -L unit)

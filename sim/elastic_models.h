@@ -14,6 +14,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <Eigen/LU>  // determinant()
+
 #include "sim/math.h"
 #include "sim/svd3.h"
 

@@ -34,7 +34,7 @@ bool ParticleSet::usesJ() const {
   return std::visit(
       [](const auto& m) {
         using M = std::decay_t<decltype(m)>;
-        return !M::kUsesF || M::kUsesPlasticJ || std::is_same_v<M, DruckerPrager<float>>;
+        return !M::kUsesF || M::kUsesPlasticJ;
       },
       model);
 }

@@ -22,7 +22,7 @@ struct ParticleSet {
   // it holds the combined affine momentum instead (see transfer.cpp).
   std::vector<Mat3f> C;
   std::vector<Mat3f> F;          // (elastic) deformation gradient; empty for water
-  std::vector<float> J;          // water: volume ratio; snow and sand: plastic volume ratio
+  std::vector<float> J;          // water: volume ratio; snow: plastic volume ratio Jp
   std::vector<uint32_t> id;      // stable particle id across frames
   std::vector<uint16_t> object;  // index into SceneDesc::objects
 

@@ -114,7 +114,7 @@ void Solver::binParticles() {
 void Solver::computeStress(float dt) {
   PhaseTimer timer(times_.stress);
   params_.dt = dt;
-  computeAffine(world_.sets, params_);
+  max_stiffness_scale_ = computeAffine(world_.sets, params_);
 }
 
 void Solver::particlesToGrid() {
@@ -138,7 +138,6 @@ void Solver::gridToParticles(float dt) {
   }
   if (!st.finite) reportNonFinite();
   max_speed_ = st.max_speed;
-  max_stiffness_scale_ = st.max_stiffness_scale;
 }
 
 void Solver::reportNonFinite() const {

@@ -55,9 +55,16 @@ constexpr int kLanes = 1;
 #endif
 
 template <int N>
+struct PackOf;
+#if defined(__GNUC__)
+template <int N>
 struct PackOf {
   typedef float type __attribute__((vector_size(N * sizeof(float))));
 };
+#define TRIAD_SVD3_INLINE __attribute__((always_inline)) inline
+#else
+#define TRIAD_SVD3_INLINE inline
+#endif
 template <>
 struct PackOf<1> {
   using type = float;
@@ -174,9 +181,8 @@ inline void condSwapNegate(M c, R& x, R& y) {
 // from swapping and converges quadratically). (cos, sin)(theta) is taken
 // proportional to (|cos 2theta| + 1, sin 2theta): the stable half-angle form.
 template <class R>
-__attribute__((always_inline)) inline void jacobiRotate(R& app, R& apq, R& aqq, R& apk, R& aqk,
-                                                        R& vp0, R& vp1, R& vp2, R& vq0, R& vq1,
-                                                        R& vq2) {
+TRIAD_SVD3_INLINE void jacobiRotate(R& app, R& apq, R& aqq, R& apk, R& aqk, R& vp0, R& vp1, R& vp2,
+                                    R& vq0, R& vq1, R& vq2) {
   const R d = app - aqq;
   R x = absv(d);                              // proportional to cos(2 theta)
   R y = d < 0.0f ? -2.0f * apq : 2.0f * apq;  // proportional to sin(2 theta)
@@ -205,7 +211,7 @@ __attribute__((always_inline)) inline void jacobiRotate(R& app, R& apq, R& aqq, 
 // (rho, 0)^T, rho >= 0, from its half angle (McAdams' QR step). Swapping the
 // pair for a1 < 0 selects the stable one of the two half-angle formulas.
 template <class R>
-__attribute__((always_inline)) inline void qrGivens(R a1, R a2, R& c, R& s) {
+TRIAD_SVD3_INLINE void qrGivens(R a1, R a2, R& c, R& s) {
   const R rho = sqrtv(a1 * a1 + a2 * a2);
   const auto significant = rho > kQrEpsilon;
   R sh = significant ? a2 : R{};
@@ -337,6 +343,12 @@ inline void svdKernel(const R (&f)[9], R (&u)[9], R (&sigma)[3], R (&v)[9]) {
   sigma[0] = sg0 * scale, sigma[1] = sg1 * scale, sigma[2] = sg2 * scale;
 }
 
+// GCC 12 at -O3 flags JacobiSVD's fully written singular values as "maybe
+// uninitialized" once inlined here; the warning is a known false positive.
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
 template <class T>
 void svdEigen(const Mat3<T>& F, Mat3<T>& U, Vec3<T>& sigma, Mat3<T>& V) {
   const Eigen::JacobiSVD<Mat3<T>> svd(F, Eigen::ComputeFullU | Eigen::ComputeFullV);
@@ -354,6 +366,9 @@ void svdEigen(const Mat3<T>& F, Mat3<T>& U, Vec3<T>& sigma, Mat3<T>& V) {
     sigma(2) = -sigma(2);
   }
 }
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic pop
+#endif
 
 // Up to kLanes matrices through the kernel. Eigen stores column-major:
 // entry (i, j) of matrix l sits at F[l].data()[3 j + i].
@@ -451,3 +466,5 @@ inline void polarRotationBatch(int n, const Mat3f* F, Mat3f* R) {
 }
 
 }  // namespace triad
+
+#undef TRIAD_SVD3_INLINE

@@ -40,38 +40,37 @@ inline Vec3i haloOffset(const Stencil& s, const GridLayout& layout, size_t pb) {
   return Vec3i(s.base[0] - b.x(), s.base[1] - b.y(), s.base[2] - b.z());
 }
 
-// Kirchhoff stress of particle i of a set whose model is M.
+// Particles per stress chunk: the batched SVD fills the vector lanes, and a
+// chunk's stresses stay in L1 until they are folded into C.
+constexpr int kStressChunk = 128;
+
+// Kirchhoff stresses of particles [b, b+n) of a set. Plastic models project
+// the trial elastic F onto their yield surface first, sharing one SVD with
+// the stress (so F is stored unprojected between G2P and the next step).
 template <class M>
-Mat3f kirchhoffOf(const M& model, const ParticleSet& set, size_t i) {
-  if constexpr (std::is_same_v<M, Water<float>>) {
-    return model.kirchhoff(set.J[i], set.C[i]);
+void stressChunk(const M& model, ParticleSet& set, size_t b, int n, Mat3f* tau) {
+  if constexpr (std::is_same_v<M, FixedCorotated<float>>) {
+    kirchhoffBatch(model, n, &set.F[b], tau);
   } else if constexpr (std::is_same_v<M, Snow<float>>) {
-    return model.kirchhoff(set.F[i], set.J[i]);
+    projectAndKirchhoffBatch(model, n, &set.F[b], &set.J[b], tau);
+  } else if constexpr (std::is_same_v<M, DruckerPrager<float>>) {
+    projectAndKirchhoffBatch(model, n, &set.F[b], tau);
+  } else if constexpr (std::is_same_v<M, Water<float>>) {
+    for (int i = 0; i < n; ++i) tau[i] = model.kirchhoff(set.J[b + i], set.C[b + i]);
   } else {
-    return model.kirchhoff(set.F[i]);
+    for (int i = 0; i < n; ++i) tau[i] = model.kirchhoff(set.F[b + i]);
   }
 }
 
-// Deformation update and plastic return mapping of particle i after G2P.
-// Returns the material's stiffness scale (snow hardening, else 1).
+// Deformation update of particle i after G2P: F <- (I + dt C) F, or for
+// water J <- J (1 + dt tr C).
 template <class M>
-float updateDeformation(const M& model, ParticleSet& set, size_t i, float dt) {
+void updateDeformation(ParticleSet& set, size_t i, float dt) {
   const Mat3f& C = set.C[i];
-  if constexpr (std::is_same_v<M, Water<float>>) {
-    set.J[i] *= 1.0f + dt * C.trace();
-    return 1.0f;
+  if constexpr (M::kUsesF) {
+    set.F[i] = (Mat3f::Identity() + dt * C) * set.F[i];
   } else {
-    Mat3f F = (Mat3f::Identity() + dt * C) * set.F[i];
-    float scale = 1.0f;
-    if constexpr (std::is_same_v<M, Snow<float>>) {
-      model.project(F, set.J[i]);
-      scale = model.stiffnessScale(set.J[i]);
-    } else if constexpr (std::is_same_v<M, DruckerPrager<float>>) {
-      const float before = F.determinant();
-      if (model.project(F)) set.J[i] *= before / F.determinant();
-    }
-    set.F[i] = F;
-    return scale;
+    set.J[i] *= 1.0f + dt * C.trace();
   }
 }
 
@@ -149,7 +148,7 @@ void scatterAll(const std::vector<ParticleSet>& sets, const GridLayout& layout,
 }
 
 template <class M, bool kFlip>
-G2PStats gatherSet(const M& model, ParticleSet& set, size_t s, const GridLayout& layout,
+G2PStats gatherSet(ParticleSet& set, size_t s, const GridLayout& layout,
                    const TransferParams& p, const std::vector<GridNode>& grid,
                    const std::vector<GridNode>* flip) {
   const std::vector<uint32_t>& off = layout.offsets[s];
@@ -157,9 +156,8 @@ G2PStats gatherSet(const M& model, ParticleSet& set, size_t s, const GridLayout&
   const float c_scale = 4.0f * p.inv_dx;
   const float flip_ratio = p.flip_ratio;
   float max_speed2 = 0.0f;
-  float max_scale = 1.0f;
   int all_finite = 1;
-#pragma omp parallel reduction(max : max_speed2, max_scale) reduction(min : all_finite)
+#pragma omp parallel reduction(max : max_speed2) reduction(min : all_finite)
   {
     HaloBuffer<4> buf;
     HaloBuffer<4> fbuf;
@@ -194,31 +192,45 @@ G2PStats gatherSet(const M& model, ParticleSet& set, size_t s, const GridLayout&
         } else {
           set.v[i] = v;
         }
-        max_scale = std::max(max_scale, updateDeformation(model, set, i, dt));
+        updateDeformation<M>(set, i, dt);
         max_speed2 = std::max(max_speed2, set.v[i].squaredNorm());
         if (!std::isfinite(max_speed2 + set.x[i].sum() + set.C[i].sum())) all_finite = 0;
       }
     }
   }
   // A NaN never wins a max reduction, so report non-finite separately.
-  return {std::sqrt(max_speed2), max_scale, all_finite != 0};
+  return {std::sqrt(max_speed2), all_finite != 0};
 }
 
 }  // namespace
 
-void computeAffine(std::vector<ParticleSet>& sets, const TransferParams& p) {
+float computeAffine(std::vector<ParticleSet>& sets, const TransferParams& p) {
   const bool apic = p.scheme == TransferScheme::Apic;
+  float max_scale = 1.0f;
   for (ParticleSet& set : sets) {
     const float stress_scale = p.dt * set.volume * 4.0f * p.inv_dx * p.inv_dx * p.dx;
     const float momentum_scale = apic ? set.mass * p.dx : 0.0f;
+    const int64_t chunks = (static_cast<int64_t>(set.size()) + kStressChunk - 1) / kStressChunk;
     std::visit(
         [&](const auto& model) {
-#pragma omp parallel for schedule(static)
-          for (int64_t i = 0; i < static_cast<int64_t>(set.size()); ++i)
-            set.C[i] = momentum_scale * set.C[i] - stress_scale * kirchhoffOf(model, set, i);
+          using M = std::decay_t<decltype(model)>;
+#pragma omp parallel for schedule(static) reduction(max : max_scale)
+          for (int64_t c = 0; c < chunks; ++c) {
+            const size_t b = size_t(c) * kStressChunk;
+            const int n = int(std::min<size_t>(kStressChunk, set.size() - b));
+            Mat3f tau[kStressChunk];
+            stressChunk(model, set, b, n, tau);
+            for (int i = 0; i < n; ++i)
+              set.C[b + i] = momentum_scale * set.C[b + i] - stress_scale * tau[i];
+            if constexpr (std::is_same_v<M, Snow<float>>) {
+              for (int i = 0; i < n; ++i)
+                max_scale = std::max(max_scale, model.stiffnessScale(set.J[b + i]));
+            }
+          }
         },
         set.model);
   }
+  return max_scale;
 }
 
 void particlesToGrid(const std::vector<ParticleSet>& sets, const GridLayout& layout,
@@ -242,14 +254,12 @@ G2PStats gridToParticles(std::vector<ParticleSet>& sets, const GridLayout& layou
     ParticleSet& set = sets[s];
     const G2PStats st = std::visit(
         [&](const auto& model) {
-          return flip ? gatherSet<std::decay_t<decltype(model)>, true>(model, set, s, layout, p,
-                                                                       grid, flip)
-                      : gatherSet<std::decay_t<decltype(model)>, false>(model, set, s, layout, p,
-                                                                        grid, nullptr);
+          using M = std::decay_t<decltype(model)>;
+          return flip ? gatherSet<M, true>(set, s, layout, p, grid, flip)
+                      : gatherSet<M, false>(set, s, layout, p, grid, nullptr);
         },
         set.model);
     total.max_speed = std::max(total.max_speed, st.max_speed);
-    total.max_stiffness_scale = std::max(total.max_stiffness_scale, st.max_stiffness_scale);
     total.finite = total.finite && st.finite;
   }
   return total;

@@ -25,16 +25,16 @@ struct TransferParams {
 
 // Per-set facts that G2P gathers for the next step's time step.
 struct G2PStats {
-  float max_speed = 0.0f;            // largest particle speed, m/s
-  float max_stiffness_scale = 1.0f;  // snow hardening factor, 1 elsewhere
-  bool finite = true;                // every particle's state finite
+  float max_speed = 0.0f;  // largest particle speed, m/s
+  bool finite = true;      // every particle's state finite
 };
 
 // Stress pass: replace each particle's C by its affine momentum
 // (m C for APIC, nothing for PIC/FLIP) minus the MLS stress impulse
-// dt V0 (4/dx^2) tau, pre-multiplied by dx. The material variant is visited
-// once per set.
-void computeAffine(std::vector<ParticleSet>& sets, const TransferParams& p);
+// dt V0 (4/dx^2) tau, pre-multiplied by dx. Plastic models project F onto
+// their yield surface here. The material variant is visited once per set.
+// Returns the largest stiffness scale (snow hardening; 1 for the others).
+float computeAffine(std::vector<ParticleSet>& sets, const TransferParams& p);
 
 // Scatter mass and momentum into `grid` (sized layout.gridBlocks() * 64).
 // With FLIP, `flip` receives the momentum without the stress impulse.
@@ -43,7 +43,7 @@ void particlesToGrid(const std::vector<ParticleSet>& sets, const GridLayout& lay
                      std::vector<GridNode>* flip);
 
 // Gather velocities (and, with FLIP, velocity changes) back to particles,
-// advect them, and update deformation and plasticity per material.
+// advect them, and update each particle's F (or J for water).
 G2PStats gridToParticles(std::vector<ParticleSet>& sets, const GridLayout& layout,
                          const TransferParams& p, const std::vector<GridNode>& grid,
                          const std::vector<GridNode>* flip);

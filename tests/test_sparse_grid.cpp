@@ -14,7 +14,7 @@ namespace triad {
 namespace {
 
 TEST(SparseGrid, PackRoundTripsNegativeCoordinates) {
-  for (const Vec3i b : {Vec3i(0, 0, 0), Vec3i(-1, 2, -3), Vec3i(1000, -1000, 7),
+  for (const Vec3i& b : {Vec3i(0, 0, 0), Vec3i(-1, 2, -3), Vec3i(1000, -1000, 7),
                         Vec3i(-(1 << 20), (1 << 20) - 1, 0)})
     EXPECT_EQ(unpackBlock(packBlock(b)), b);
   // Key order is x-major, so sorted keys walk blocks in memory order.

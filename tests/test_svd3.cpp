@@ -72,7 +72,7 @@ void checkMatrix(const Mat3<T>& F) {
 template <class T>
 class Svd3Test : public ::testing::Test {};
 using Scalars = ::testing::Types<float, double>;
-TYPED_TEST_SUITE(Svd3Test, Scalars);
+TYPED_TEST_SUITE(Svd3Test, Scalars, );
 
 TYPED_TEST(Svd3Test, Identity) {
   using T = TypeParam;
