@@ -2,6 +2,7 @@
 #include <CLI/CLI.hpp>
 #include <string>
 
+#include "app/render_cache.h"
 #include "app/run_scene.h"
 
 int main(int argc, char** argv) {
@@ -18,6 +19,14 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 1024));
   run_cmd->add_flag("--quiet", quiet, "No progress display");
   run_cmd->add_flag("--plain", plain, "Plain progress lines even on a terminal");
+  run_cmd->add_flag("--resume", run.resume,
+                    "Continue from the last complete frame's checkpoint in the output directory");
+
+  triad::RenderCacheOptions render;
+  CLI::App* render_cmd =
+      app.add_subcommand("render", "Re-render the PNG previews of an existing cache");
+  render_cmd->add_option("cache", render.cache_dir, "Cache directory (a run's output)")->required();
+  render_cmd->add_option("--threads", render.threads, "Worker threads")->check(CLI::Range(1, 1024));
 
   try {
     app.parse(argc, argv);
@@ -26,6 +35,7 @@ int main(int argc, char** argv) {
     const int code = app.exit(e);
     return code == 0 ? 0 : triad::kExitBadInput;
   }
+  if (render_cmd->parsed()) return triad::renderCache(render);
   if (quiet) run.progress = triad::ProgressMode::Quiet;
   else if (plain) run.progress = triad::ProgressMode::Plain;
   return triad::runScene(run);

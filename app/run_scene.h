@@ -11,6 +11,7 @@ struct RunOptions {
   std::string out_dir;  // overrides output.dir when not empty
   int threads = 0;      // 0: OpenMP's default
   ProgressMode progress = ProgressMode::Auto;
+  bool resume = false;  // continue from the last complete frame's checkpoint
 };
 
 // Exit statuses of the command line contract.

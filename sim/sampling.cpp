@@ -82,11 +82,13 @@ std::vector<Vec3d> cellSampleOffsets(int ppc) {
   return offsets;
 }
 
-std::vector<Vec3f> sampleShape(const ShapeDesc& shape, const DomainDesc& domain, int ppc) {
+std::vector<Vec3f> sampleShape(const ShapeDesc& shape, const DomainDesc& domain, int ppc,
+                               const MeshSampler& mesh_sampler) {
   if (const auto* box = std::get_if<BoxDesc>(&shape)) return sampleImplicit(*box, domain, ppc);
   if (const auto* sphere = std::get_if<SphereDesc>(&shape))
     return sampleImplicit(*sphere, domain, ppc);
-  throw InputError("", "mesh shapes cannot be sampled yet (mesh import is not implemented)");
+  if (!mesh_sampler) throw InputError("", "mesh shapes need a mesh importer (none was given)");
+  return mesh_sampler(std::get<MeshDesc>(shape), domain, ppc);
 }
 
 }  // namespace triad

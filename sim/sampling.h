@@ -1,5 +1,6 @@
 #pragma once
 // Deterministic sampling of primitive shapes into MPM particles.
+#include <functional>
 #include <vector>
 
 #include "sim/math.h"
@@ -13,9 +14,17 @@ namespace triad {
 // deterministic and the sampled volume converges with dx.
 std::vector<Vec3d> cellSampleOffsets(int ppc);
 
+// Samples the interior of a mesh shape on the same lattice as the
+// primitives (cellSampleOffsets). Provided by import/, since sim/ reads no
+// files; throws InputError naming the mesh file when it cannot.
+using MeshSampler =
+    std::function<std::vector<Vec3f>(const MeshDesc& mesh, const DomainDesc& domain, int ppc)>;
+
 // Particles of the domain's cell lattice that fall inside the shape (and the
 // domain). Boxes are half-open [min, max) so that abutting boxes never
-// sample a point twice.
-std::vector<Vec3f> sampleShape(const ShapeDesc& shape, const DomainDesc& domain, int ppc);
+// sample a point twice. Mesh shapes go to `mesh_sampler` (an InputError when
+// none is given).
+std::vector<Vec3f> sampleShape(const ShapeDesc& shape, const DomainDesc& domain, int ppc,
+                               const MeshSampler& mesh_sampler = {});
 
 }  // namespace triad

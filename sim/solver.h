@@ -23,6 +23,13 @@ struct StepRecord {
   uint64_t particle_steps = 0;  // particles times substeps
 };
 
+// What the next step depends on beyond the World: checkpoints save it so
+// that a resumed run takes exactly the steps an uninterrupted one takes.
+struct SolverState {
+  float max_speed = 0.0f;            // CFL speed from the last G2P
+  float max_stiffness_scale = 1.0f;  // snow hardening from the last stress pass
+};
+
 class Solver {
  public:
   explicit Solver(World& world);
@@ -42,6 +49,12 @@ class Solver {
   // Testing aid: make one particle's velocity NaN during substep `step`
   // (counted from the start of the world), to exercise the failure path.
   void injectFaultAtStep(int64_t step) { fault_step_ = step; }
+
+  SolverState state() const { return {max_speed_, max_stiffness_scale_}; }
+  void restore(const SolverState& s) {
+    max_speed_ = s.max_speed;
+    max_stiffness_scale_ = s.max_stiffness_scale;
+  }
 
   const PhaseTimes& phaseTimes() const { return times_; }
   const StepRecord& record() const { return record_; }

@@ -38,7 +38,7 @@ size_t World::particleBytes() const {
   return n;
 }
 
-World buildWorld(const SceneDesc& scene) {
+World buildWorld(const SceneDesc& scene, const MeshSampler& mesh_sampler) {
   World world;
   world.scene = scene;
   world.object_particles.assign(scene.objects.size(), 0);
@@ -64,8 +64,10 @@ World buildWorld(const SceneDesc& scene) {
                            "' objects are not implemented yet; only 'mpm' objects can be simulated");
     std::vector<Vec3f> points;
     try {
-      points = sampleShape(obj.shape, domain, ppc);
+      points = sampleShape(obj.shape, domain, ppc, mesh_sampler);
     } catch (const InputError& e) {
+      // The sampler names the mesh file itself; primitives get the key path.
+      if (!e.where().empty()) throw;
       throw InputError(objectKey(scene, i) + ".shape", e.what());
     }
     if (points.empty())

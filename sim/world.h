@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "sim/particles.h"
+#include "sim/sampling.h"
 #include "sim/scene_desc.h"
 
 namespace triad {
@@ -22,6 +23,7 @@ struct World {
 
 // Sample every object and group particles by material. Throws InputError
 // (naming the object's key path) for what the scene asks but cannot be built.
-World buildWorld(const SceneDesc& scene);
+// Mesh shapes are sampled through `mesh_sampler` (import/ provides one).
+World buildWorld(const SceneDesc& scene, const MeshSampler& mesh_sampler = {});
 
 }  // namespace triad

@@ -1,0 +1,1 @@
+// Placeholder: the preview renderer is being written (issue 6).

@@ -1,0 +1,1 @@
+// Tests to come (issues 3 and 6).
