@@ -44,8 +44,10 @@ size_t GridLayout::bytes() const {
 }
 
 size_t Binner::bytes() const {
-  return block_of_.capacity() * 4 + src_.capacity() * 4 + scratch_.capacity() +
-         run_keys_.capacity() * 8;
+  size_t runs = 0;
+  for (const auto& r : runs_) runs += r.capacity();
+  for (const auto& r : chunk_runs_) runs += r.capacity();
+  return src_.capacity() * 4 + scratch_.capacity() + run_keys_.capacity() * 8 + runs * sizeof(Run);
 }
 
 void Binner::bin(std::vector<ParticleSet>& sets, const Vec3f& shifted_origin, float inv_dx,
@@ -55,42 +57,67 @@ void Binner::bin(std::vector<ParticleSet>& sets, const Vec3f& shifted_origin, fl
     return packBlock(Vec3i(blockOf(base.x()), blockOf(base.y()), blockOf(base.z())));
   };
 
-  // Collect the blocks that hold particles. Particles stay sorted from the
-  // previous step, so consecutive runs of one key are long and few.
-  run_keys_.clear();
-  for (const ParticleSet& set : sets) {
-    uint64_t prev = ~uint64_t{0};
-    for (const Vec3f& x : set.x) {
-      const uint64_t k = keyOf(x);
-      if (k != prev) run_keys_.push_back(k);
-      prev = k;
+  // Find the runs of particles that share a block. Particles stay sorted from
+  // the previous step, so runs are long and few, and everything after this
+  // pass costs per run rather than per particle. Chunks have a fixed size, so
+  // the runs found do not depend on the thread count.
+  constexpr size_t kChunk = 16384;
+  runs_.resize(sets.size());
+  for (size_t s = 0; s < sets.size(); ++s) {
+    const std::vector<Vec3f>& x = sets[s].x;
+    const int64_t chunks = static_cast<int64_t>((x.size() + kChunk - 1) / kChunk);
+    chunk_runs_.resize(std::max<size_t>(chunk_runs_.size(), size_t(chunks)));
+#pragma omp parallel for schedule(static)
+    for (int64_t c = 0; c < chunks; ++c) {
+      std::vector<Run>& out = chunk_runs_[c];
+      out.clear();
+      const size_t end = std::min(x.size(), size_t(c + 1) * kChunk);
+      for (size_t i = size_t(c) * kChunk; i < end; ++i) {
+        const uint64_t k = keyOf(x[i]);
+        if (out.empty() || out.back().key != k) out.push_back({k, uint32_t(i), 0});
+      }
     }
+    runs_[s].clear();
+    for (int64_t c = 0; c < chunks; ++c)
+      runs_[s].insert(runs_[s].end(), chunk_runs_[c].begin(), chunk_runs_[c].end());
+    // Unsorted input (the first step) has many short runs: do not keep the
+    // memory once the particles are sorted.
+    if (runs_[s].capacity() > 4 * runs_[s].size() + 4096) runs_[s].shrink_to_fit();
+    for (int64_t c = 0; c < chunks; ++c)
+      if (chunk_runs_[c].capacity() > 4 * chunk_runs_[c].size() + 4096)
+        chunk_runs_[c].shrink_to_fit();
   }
+
+  // The blocks that hold particles, sorted.
+  run_keys_.clear();
+  for (const std::vector<Run>& runs : runs_)
+    for (const Run& r : runs) run_keys_.push_back(r.key);
   sortUnique(run_keys_);
   layout.particle_keys = run_keys_;
   const size_t nblocks = layout.particle_keys.size();
 
-  // Sort each set's particles by block with a stable counting sort.
+  // Sort each set's particles by block with a stable counting sort over runs.
   layout.offsets.resize(sets.size());
   for (size_t s = 0; s < sets.size(); ++s) {
     ParticleSet& set = sets[s];
-    const size_t n = set.size();
-    block_of_.resize(n);
-#pragma omp parallel for schedule(static)
-    for (int64_t i = 0; i < static_cast<int64_t>(n); ++i)
-      block_of_[i] = findKey(layout.particle_keys, keyOf(set.x[i]));
-
+    std::vector<Run>& runs = runs_[s];
     std::vector<uint32_t>& off = layout.offsets[s];
     off.assign(nblocks + 1, 0);
-    for (size_t i = 0; i < n; ++i) ++off[block_of_[i] + 1];
-    for (size_t b = 0; b < nblocks; ++b) off[b + 1] += off[b];
-
     bool sorted = true;
-    for (size_t i = 1; i < n && sorted; ++i) sorted = block_of_[i - 1] <= block_of_[i];
+    for (size_t r = 0; r < runs.size(); ++r) {
+      runs[r].block = findKey(layout.particle_keys, runs[r].key);
+      const uint32_t end = r + 1 < runs.size() ? runs[r + 1].start : uint32_t(set.size());
+      off[runs[r].block + 1] += end - runs[r].start;
+      sorted = sorted && (r == 0 || runs[r - 1].block <= runs[r].block);
+    }
+    for (size_t b = 0; b < nblocks; ++b) off[b + 1] += off[b];
     if (sorted) continue;
-    src_.resize(n);
+    src_.resize(set.size());
     std::vector<uint32_t> cursor(off.begin(), off.end() - 1);
-    for (size_t i = 0; i < n; ++i) src_[cursor[block_of_[i]]++] = static_cast<uint32_t>(i);
+    for (size_t r = 0; r < runs.size(); ++r) {
+      const uint32_t end = r + 1 < runs.size() ? runs[r + 1].start : uint32_t(set.size());
+      for (uint32_t i = runs[r].start; i < end; ++i) src_[cursor[runs[r].block]++] = i;
+    }
     set.permute(src_, scratch_);
   }
 

@@ -71,8 +71,15 @@ class Binner {
   size_t bytes() const;
 
  private:
-  std::vector<uint32_t> block_of_;  // per particle: its particle block index
-  std::vector<uint32_t> src_;       // per particle: source index of the sorted order
+  // Consecutive particles of one set in one block: [start, next run's start).
+  struct Run {
+    uint64_t key;
+    uint32_t start;
+    uint32_t block;  // index into GridLayout::particle_keys
+  };
+  std::vector<std::vector<Run>> runs_;        // per set
+  std::vector<std::vector<Run>> chunk_runs_;  // per chunk of particles, reused
+  std::vector<uint32_t> src_;                 // per particle: source index of the sorted order
   std::vector<unsigned char> scratch_;
   std::vector<uint64_t> run_keys_;
 };
