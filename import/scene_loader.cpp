@@ -388,6 +388,11 @@ OutputDesc parseOutput(const ParamDict& root, const std::string& name,
     out.ply = o->getBool("ply", out.ply);
     out.vdb = o->getBool("vdb", out.vdb);
     out.png = o->getBool("png", out.png);
+    // Left out (0): the domain's dx, resolved where the volumes are written.
+    if (o->has("vdb_voxel_size"))
+      out.vdb_voxel_size = o->requireDouble("vdb_voxel_size", Range::positive());
+    out.vdb_surface = o->getBool("vdb_surface", out.vdb_surface);
+    out.checkpoints = o->getBool("checkpoints", out.checkpoints);
     o->checkUnknownKeys();
   }
   return out;

@@ -1,0 +1,33 @@
+#pragma once
+// Collision particles of rigid and volumetric elastic solids (coupling.md):
+// voxel samples with a mass, a position and an outward unit normal, and the
+// rigid mass properties they imply. Plain Eigen; the sampling of shapes
+// (meshes through their signed distance field) lives in import/.
+#include <vector>
+
+#include "sim/math.h"
+
+namespace triad {
+
+struct CollisionSamples {
+  std::vector<Vec3f> x;       // sample positions, world space
+  std::vector<Vec3f> normal;  // outward unit normal (SDF gradient), interior samples too
+  float mass_per_sample = 0;    // density * spacing^3 (uniform density)
+  float volume_per_sample = 0;  // spacing^3
+  double spacing = 0;           // lattice spacing h; each sample stands for a cube of side h
+  size_t size() const { return x.size(); }
+};
+
+struct MassProperties {
+  double mass = 0;
+  Vec3d centre = Vec3d::Zero();     // centre of mass
+  Mat3d inertia = Mat3d::Zero();    // inertia tensor about the centre of mass, world axes
+};
+
+// Uniform-density mass properties of the samples: each sample is a cube of
+// side h and mass m, so besides the point-mass term m (|r|^2 I - r r^T) it
+// adds its own inertia m h^2 / 6 on the diagonal. With that term a box
+// whose faces lie on the sample cells' faces is exact at any resolution.
+MassProperties computeMassProperties(const CollisionSamples& samples);
+
+}  // namespace triad
