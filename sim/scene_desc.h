@@ -104,6 +104,9 @@ struct OutputDesc {
   bool ply = true;
   bool vdb = true;
   bool png = true;
+  double vdb_voxel_size = 0.0;  // m; 0: the domain's dx
+  bool vdb_surface = false;     // also a narrow-band level set `surface`
+  bool checkpoints = true;      // checkpoints/state.FFFF.bin, for --resume
 };
 
 struct CameraDesc {
