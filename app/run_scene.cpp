@@ -2,13 +2,14 @@
 
 #include <omp.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
 
+#include "app/frame_output.h"
 #include "export/atomic_file.h"
-#include "export/ply_writer.h"
 #include "export/run_record.h"
 #include "import/scene_loader.h"
 #include "sim/errors.h"
@@ -18,12 +19,6 @@
 namespace triad {
 
 namespace {
-
-std::string frameName(const std::string& dir, const char* stem, int frame, const char* ext) {
-  char buf[32];
-  std::snprintf(buf, sizeof(buf), ".%04d.", frame);
-  return dir + "/" + stem + buf + ext;
-}
 
 void printSummary(const RunRecord& rec, const std::string& out_dir) {
   std::printf("%s: %zu particles, %d frames, %lld substeps, dt %.3g .. %.3g s\n",
@@ -39,10 +34,6 @@ void printSummary(const RunRecord& rec, const std::string& out_dir) {
 }
 
 }  // namespace
-
-std::string particlesPath(const std::string& out_dir, int frame) {
-  return frameName(out_dir + "/particles", "particles", frame, "ply");
-}
 
 std::string runRecordPath(const std::string& out_dir) { return out_dir + "/run.json"; }
 
@@ -62,7 +53,7 @@ int runScene(const RunOptions& options) {
     world = buildWorld(scene);
     out_dir = options.out_dir.empty() ? scene.output.dir : options.out_dir;
     try {
-      makeDirectories(out_dir + "/particles");
+      makeOutputDirectories(scene, out_dir);
     } catch (const std::exception& e) {
       throw InputError(options.out_dir.empty() ? scene.source_path + ": output.dir" : "--out",
                        e.what());
@@ -71,10 +62,8 @@ int runScene(const RunOptions& options) {
     std::fprintf(stderr, "triad: error: %s\n", e.what());
     return kExitBadInput;
   }
-  if (scene.output.vdb || scene.output.png)
-    std::fprintf(stderr,
-                 "triad: note: VDB volumes and PNG previews are not written yet; writing PLY "
-                 "particle caches and run.json\n");
+  if (scene.output.png)
+    std::fprintf(stderr, "triad: note: PNG previews are not written yet\n");
 
   rec.scene_name = scene.name;
   rec.scene_path = scene.source_path;
@@ -87,17 +76,60 @@ int runScene(const RunOptions& options) {
   Solver solver(world);
   // Testing aid (tests/test_cli.cpp): force a blow-up at a given substep.
   if (const char* fault = std::getenv("TRIAD_FAULT_STEP")) solver.injectFaultAtStep(std::atoll(fault));
+
+  // Resume from the newest usable checkpoint, or start over without stale ones.
+  int start_frame = 0;
+  int resumed_from = -1;
+  StepRecord before;  // step statistics of the run before it was resumed
+  try {
+    removeStaleTemporaries(out_dir);
+    if (options.resume) {
+      if (auto rp = resumeFromCheckpoint(scene, out_dir, rec.scene_hash, world, solver)) {
+        start_frame = resumed_from = rp->frame;
+        before = rp->record;
+        std::fprintf(stderr, "triad: resuming after frame %d from %s\n", rp->frame,
+                     rp->checkpoint.c_str());
+      } else {
+        std::fprintf(stderr, "triad: note: no usable checkpoint in %s: starting from frame 0\n",
+                     checkpointDir(out_dir).c_str());
+      }
+    } else {
+      removeCheckpoints(out_dir);
+    }
+  } catch (const InputError& e) {
+    std::fprintf(stderr, "triad: error: %s\n", e.what());
+    return kExitBadInput;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "triad: error: %s\n", e.what());
+    return kExitRunFailed;
+  }
+  rec.frames_written = resumed_from + 1;  // frames 0..resumed_from are on disk
+
+  // Step statistics of the whole run, across a resume.
+  auto runSteps = [&]() {
+    const StepRecord& now = solver.record();
+    StepRecord all = before;
+    all.steps += now.steps;
+    all.particle_steps += now.particle_steps;
+    if (now.steps > 0) {
+      all.dt_min = before.steps > 0 ? std::min(before.dt_min, now.dt_min) : now.dt_min;
+      all.dt_max = std::max(before.dt_max, now.dt_max);
+    }
+    return all;
+  };
+
   double output_seconds = 0.0;
   auto record = [&](bool finished, const std::string& error) {
     const PhaseTimes& t = solver.phaseTimes();
     rec.phase_seconds = {{"bin", t.bin},   {"stress", t.stress}, {"p2g", t.p2g},
                          {"grid", t.grid}, {"g2p", t.g2p},       {"solve", t.total()},
                          {"output", output_seconds}};
+    const StepRecord steps = runSteps();
     rec.simulated_time = world.time;
-    rec.steps = solver.record().steps;
-    rec.dt_min = solver.record().dt_min;
-    rec.dt_max = solver.record().dt_max;
-    rec.particle_steps = solver.record().particle_steps;
+    rec.steps = steps.steps;
+    rec.dt_min = steps.dt_min;
+    rec.dt_max = steps.dt_max;
+    rec.particle_steps = steps.particle_steps;
     rec.wall_seconds = omp_get_wtime() - t_start;
     rec.peak_rss_bytes = peakResidentBytes();
     rec.particle_bytes = world.particleBytes();
@@ -106,10 +138,19 @@ int runScene(const RunOptions& options) {
     rec.error = error;
     rec.ended_utc = utcNow();
     writeRunRecord(runRecordPath(out_dir), rec);
+    if (options.resume) annotateRunRecordResumed(runRecordPath(out_dir), resumed_from);
   };
+
+  // Everything a frame writes, in this order: the cache files, then the
+  // checkpoint (its presence means the frame is complete), then run.json.
   auto writeFrame = [&](int frame) {
     const double t0 = omp_get_wtime();
-    if (scene.output.ply) writeParticlesPly(particlesPath(out_dir, frame), world);
+    // Particles (PLY) and volumes (VDB).
+    writeFrameCaches(scene, out_dir, world, frame);
+    // Preview renders of the frame belong here, before the checkpoint.
+    // The checkpoint, last: --resume trusts every file of a checkpointed frame.
+    if (scene.output.checkpoints)
+      writeFrameCheckpoint(out_dir, frame, rec.scene_hash, world, solver, runSteps());
     rec.frames_written = frame + 1;
     output_seconds += omp_get_wtime() - t0;
     record(false, "");
@@ -117,10 +158,10 @@ int runScene(const RunOptions& options) {
 
   const int frames = scene.frames.count;
   Progress progress(options.progress, frames, frames / scene.frames.fps);
-  int frame = 0;
+  int frame = start_frame;
   try {
-    writeFrame(0);
-    for (frame = 1; frame <= frames; ++frame) {
+    if (resumed_from < 0) writeFrame(0);
+    for (frame = start_frame + 1; frame <= frames; ++frame) {
       const double t_frame = frame / scene.frames.fps;
       solver.advanceTo(t_frame, [&](double dt) {
         progress.step(frame, world.steps, world.time, dt);

@@ -13,8 +13,8 @@ PACKAGES=(
   libopenvdb-dev libboost-iostreams-dev libtbb-dev
   # render/: headless OpenGL and PNG
   libosmesa6-dev libpng-dev
-  # tests/
-  libgtest-dev
+  # tests/ (vdb_print reads the VDB caches back independently)
+  libgtest-dev libopenvdb-tools
 )
 
 missing=()

@@ -1,0 +1,60 @@
+#pragma once
+// The files of one frame (particles, volumes, checkpoint) and finding where a
+// killed run can resume. runScene (app/run_scene.cpp) calls these in order.
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "export/checkpoint.h"
+#include "sim/scene_desc.h"
+#include "sim/solver.h"
+#include "sim/world.h"
+
+namespace triad {
+
+// Cache paths, shared with readers and tests (particlesPath: run_scene.h).
+std::string volumesPath(const std::string& out_dir, int frame);
+std::string checkpointDir(const std::string& out_dir);
+std::string checkpointPath(const std::string& out_dir, int frame);
+
+// Creates the folders the scene's outputs need under out_dir.
+void makeOutputDirectories(const SceneDesc& scene, const std::string& out_dir);
+
+// Writes the frame's cache files that the scene asks for: PLY particles and
+// the VDB volumes (voxel size output.vdb_voxel_size, else domain.dx).
+void writeFrameCaches(const SceneDesc& scene, const std::string& out_dir, const World& world,
+                      int frame);
+
+// Writes the frame's checkpoint, then deletes all but it and the one before.
+void writeFrameCheckpoint(const std::string& out_dir, int frame, const std::string& scene_hash,
+                          const World& world, const Solver& solver, const StepRecord& record);
+
+// Deletes temporaries (NAME.tmpPID) that a killed run left in the cache
+// folders. Call before this run writes anything.
+void removeStaleTemporaries(const std::string& out_dir);
+
+// Deletes every checkpoint in out_dir (a fresh run must not leave stale ones
+// from an earlier run for a later --resume).
+void removeCheckpoints(const std::string& out_dir);
+
+// Where a resumed run continues: the state after `frame` has been restored.
+struct ResumePoint {
+  int frame = 0;
+  std::string checkpoint;  // its path
+  StepRecord record;       // step statistics of the run up to that frame
+};
+
+// Restores `world` and `solver` from the newest checkpoint in out_dir that
+// reads back intact, belongs to this scene file, fits the world built from
+// it, and whose frame's cache files are complete; nullopt (nothing changed)
+// if there is none. Checkpoints passed over are reported on stderr. Throws
+// InputError (exit status 2) when that checkpoint was written for a
+// different scene file.
+std::optional<ResumePoint> resumeFromCheckpoint(const SceneDesc& scene, const std::string& out_dir,
+                                                const std::string& scene_hash, World& world,
+                                                Solver& solver);
+
+// Adds "resumed": {"from_frame": k or null} to the run record just written.
+void annotateRunRecordResumed(const std::string& run_json, int from_frame);
+
+}  // namespace triad

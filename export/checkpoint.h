@@ -1,0 +1,66 @@
+#pragma once
+// Checkpoints: the complete solver state at the end of a frame, so that
+// `triad run --resume` continues a killed run and writes the same bytes an
+// uninterrupted run would. Materials are not stored: they are rebuilt from
+// the scene, whose hash the checkpoint records.
+//
+// File (checkpoints/state.FFFF.bin), little-endian, version 1:
+//   header   char[8] "TRIADCKP", u32 format version, u32 header bytes (= 64),
+//            u64 payload bytes, i32 frame, u32 set count, f64 time,
+//            i64 steps, u8[16] reserved (zero)
+//   payload  scene hash   (u32 length, bytes: "fnv1a64:<hex>")
+//            solver state (f32 max_speed, f32 max_stiffness_scale)
+//            step record  (i64 steps, f64 dt_min, f64 dt_max, u64 particle steps)
+//            per set:     i32 material, f32 mass, f32 volume, u64 n,
+//                         u8 has_F, u8 has_J, u16 0, then the arrays in order
+//                         x v (3 f32 each), C F (9 f32, column-major),
+//                         J (f32), id (u32), object (u16), F/J only if present
+//   trailer  u64 checksum of header and payload (FNV-1a 64 over 8-byte words),
+//            char[8] "TRIADEND"
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "sim/solver.h"
+#include "sim/world.h"
+
+namespace triad {
+
+// A checkpoint that cannot be used: unreadable, truncated, corrupt, of another
+// format version, or not matching the scene's particle sets.
+class CheckpointError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+struct Checkpoint {
+  int frame = 0;
+  std::string scene_hash;
+  double time = 0.0;
+  int64_t steps = 0;
+  SolverState solver;
+  StepRecord record;  // the solver's step statistics up to this frame
+  std::vector<ParticleSet> sets;  // arrays, material index, mass, volume (no model)
+};
+
+constexpr uint32_t kCheckpointVersion = 1;
+
+// Writes the world's particle sets and clock, the solver state and the frame
+// atomically to `path`. Throws std::runtime_error naming the file.
+void writeCheckpoint(const std::string& path, int frame, const std::string& scene_hash,
+                     const World& world, const Solver& solver, const StepRecord& record);
+
+// Reads and verifies (size, magic, version, checksum, array sizes) a
+// checkpoint. Throws CheckpointError saying what is wrong.
+Checkpoint readCheckpoint(const std::string& path);
+
+// Moves a checkpoint's state into `world` (built from the same scene) and
+// `solver`. Throws CheckpointError if the particle sets do not match the
+// world's (set count, material, mass, volume, F/J presence, object indices).
+void restoreCheckpoint(Checkpoint&& ckpt, World& world, Solver& solver);
+
+// Checkpoint files in `dir` as (frame, path), newest first. Ignores other files.
+std::vector<std::pair<int, std::string>> listCheckpoints(const std::string& dir);
+
+}  // namespace triad

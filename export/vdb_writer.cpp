@@ -1,0 +1,255 @@
+#include "export/vdb_writer.h"
+
+// The only translation unit of export/ that includes OpenVDB (slow to compile).
+#include <openvdb/io/File.h>
+#include <openvdb/openvdb.h>
+#include <openvdb/tools/ParticlesToLevelSet.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <mutex>
+#include <stdexcept>
+#include <system_error>
+#include <unistd.h>
+#include <vector>
+
+namespace triad {
+
+namespace {
+
+namespace fs = std::filesystem;
+using openvdb::Coord;
+using openvdb::FloatGrid;
+using openvdb::Vec3SGrid;
+
+void initOpenVdb() {
+  static std::once_flag once;
+  std::call_once(once, [] { openvdb::initialize(); });
+}
+
+// The metadata every grid (and the file) carries.
+void addFrameMetadata(openvdb::MetaMap& meta, const VdbFrameInfo& info, const char* units) {
+  meta.insertMeta("frame", openvdb::Int32Metadata(info.frame));
+  meta.insertMeta("time", openvdb::DoubleMetadata(info.time));
+  meta.insertMeta("scene", openvdb::StringMetadata(info.scene_name));
+  if (units) meta.insertMeta("units", openvdb::StringMetadata(units));
+}
+
+// Trilinear (cloud-in-cell) splat of mass and momentum onto voxel centres,
+// which sit at index * h. Serial, in particle order: deterministic bytes.
+// Returns {density in kg/m^3, mass-weighted velocity in m/s}.
+std::pair<FloatGrid::Ptr, Vec3SGrid::Ptr> splatMass(const World& world, double h) {
+  FloatGrid::Ptr mass = FloatGrid::create(0.0f);
+  Vec3SGrid::Ptr momentum = Vec3SGrid::create(openvdb::Vec3s(0.0f));
+  FloatGrid::Accessor ma = mass->getAccessor();
+  Vec3SGrid::Accessor pa = momentum->getAccessor();
+  const double inv_h = 1.0 / h;
+
+  // Scatter each particle's mass and momentum to its 8 surrounding voxels.
+  for (const ParticleSet& set : world.sets) {
+    const double m = set.mass;
+    for (size_t i = 0; i < set.size(); ++i) {
+      int base[3];
+      double w[3][2];
+      for (int d = 0; d < 3; ++d) {
+        const double g = double(set.x[i][d]) * inv_h;
+        const double b = std::floor(g);
+        base[d] = static_cast<int>(b);
+        w[d][1] = g - b;
+        w[d][0] = 1.0 - w[d][1];
+      }
+      const openvdb::Vec3d p = openvdb::Vec3d(set.v[i].x(), set.v[i].y(), set.v[i].z()) * m;
+      for (int c = 0; c < 8; ++c) {
+        const int a = (c >> 2) & 1, b = (c >> 1) & 1, e = c & 1;
+        const double wc = w[0][a] * w[1][b] * w[2][e];
+        if (wc <= 0.0) continue;  // a particle exactly on a voxel centre
+        const Coord ijk(base[0] + a, base[1] + b, base[2] + e);
+        ma.setValue(ijk, ma.getValue(ijk) + float(wc * m));
+        pa.setValue(ijk, pa.getValue(ijk) + openvdb::Vec3s(p * wc));
+      }
+    }
+  }
+
+  // Momentum to velocity, then mass to density, voxel by voxel.
+  for (auto it = momentum->beginValueOn(); it; ++it) {
+    const float vm = ma.getValue(it.getCoord());
+    it.setValue(vm > 0.0f ? *it / vm : openvdb::Vec3s(0.0f));
+  }
+  const float inv_volume = float(1.0 / (h * h * h));
+  for (auto it = mass->beginValueOn(); it; ++it) it.setValue(*it * inv_volume);
+  return {mass, momentum};
+}
+
+// Particles as ParticlesToLevelSet reads them: positions and per-set radius.
+class ParticleSpheres {
+ public:
+  using PosType = openvdb::Vec3R;
+  ParticleSpheres(const World& world, const std::vector<double>& radius) : radius_(radius) {
+    for (size_t s = 0; s < world.sets.size(); ++s) {
+      sets_.push_back(&world.sets[s]);
+      start_.push_back(size_);
+      size_ += world.sets[s].size();
+    }
+  }
+  size_t size() const { return size_; }
+  void getPos(size_t n, openvdb::Vec3R& xyz) const {
+    const size_t s = setOf(n);
+    const Vec3f& x = sets_[s]->x[n - start_[s]];
+    xyz = openvdb::Vec3R(x.x(), x.y(), x.z());
+  }
+  void getPosRad(size_t n, openvdb::Vec3R& xyz, openvdb::Real& r) const {
+    getPos(n, xyz);
+    r = radius_[setOf(n)];
+  }
+
+ private:
+  size_t setOf(size_t n) const {
+    return size_t(std::upper_bound(start_.begin(), start_.end(), n) - start_.begin()) - 1;
+  }
+  std::vector<const ParticleSet*> sets_;
+  std::vector<size_t> start_;
+  std::vector<double> radius_;
+  size_t size_ = 0;
+};
+
+double setRadius(const ParticleSet& set) {
+  return std::cbrt(double(set.volume)) * std::sqrt(3.0) * 0.5;
+}
+
+// Narrow-band level set of the union of particle spheres.
+FloatGrid::Ptr particleSurface(const World& world, const SurfaceSampling& s) {
+  constexpr double kHalfWidth = 3.0;  // voxels, OpenVDB's default band
+  FloatGrid::Ptr ls = openvdb::createLevelSet<FloatGrid>(s.voxel_size, kHalfWidth);
+  std::vector<double> radius;
+  for (const ParticleSet& set : world.sets) radius.push_back(setRadius(set));
+  const ParticleSpheres spheres(world, radius);
+  if (spheres.size() == 0) return ls;
+  openvdb::tools::ParticlesToLevelSet<FloatGrid> raster(*ls);
+  raster.setRmin(1.5);
+  raster.rasterizeSpheres(spheres);
+  raster.finalize(/*prune=*/true);
+  return ls;
+}
+
+// 64-bit FNV-1a over a byte range, continuing from `h`.
+uint64_t fnv1a(const char* p, size_t n, uint64_t h) {
+  for (size_t i = 0; i < n; ++i) {
+    h ^= static_cast<unsigned char>(p[i]);
+    h *= 1099511628211ull;
+  }
+  return h;
+}
+
+// OpenVDB writes a random UUID into every file header (magic, file version,
+// library version, has-grid-offsets flag, then 36 ASCII characters). Replace
+// it with one derived from the rest of the file, so equal grids give equal
+// files. Throws if the header is not laid out as expected.
+void makeUuidDeterministic(const std::string& file) {
+  constexpr size_t kUuidAt = 8 + 4 + 4 + 4 + 1, kUuidLen = 36;
+  std::fstream io(file, std::ios::in | std::ios::out | std::ios::binary);
+  std::vector<char> bytes((std::istreambuf_iterator<char>(io)), std::istreambuf_iterator<char>());
+  if (bytes.size() < kUuidAt + kUuidLen) throw std::runtime_error("OpenVDB wrote a short file");
+  for (size_t k = 0; k < kUuidLen; ++k) {
+    const char c = bytes[kUuidAt + k];
+    const bool dash = k == 8 || k == 13 || k == 18 || k == 23;
+    if (dash ? c != '-' : !std::isxdigit(static_cast<unsigned char>(c)))
+      throw std::runtime_error("unexpected OpenVDB header layout (no UUID at byte 21)");
+  }
+  uint64_t h1 = fnv1a(bytes.data(), kUuidAt, 1469598103934665603ull);
+  h1 = fnv1a(bytes.data() + kUuidAt + kUuidLen, bytes.size() - kUuidAt - kUuidLen, h1);
+  const uint64_t h2 = fnv1a(reinterpret_cast<const char*>(&h1), sizeof(h1), h1 ^ 0x9e3779b97f4a7c15ull);
+  char uuid[40];
+  std::snprintf(uuid, sizeof(uuid), "%08x-%04x-%04x-%04x-%012llx", unsigned(h1 >> 32),
+                unsigned((h1 >> 16) & 0xffff), unsigned(h1 & 0xffff), unsigned(h2 >> 48),
+                static_cast<unsigned long long>(h2 & 0xffffffffffffull));
+  io.clear();
+  io.seekp(std::streamoff(kUuidAt));
+  io.write(uuid, std::streamsize(kUuidLen));
+  io.flush();
+  if (!io) throw std::runtime_error("cannot rewrite the header");
+}
+
+}  // namespace
+
+SurfaceSampling surfaceSampling(const World& world, double density_voxel_size) {
+  SurfaceSampling s;
+  double r_min = 0.0;
+  for (const ParticleSet& set : world.sets) {
+    if (set.size() == 0) continue;
+    const double r = setRadius(set);
+    s.radius = std::max(s.radius, r);
+    r_min = r_min > 0.0 ? std::min(r_min, r) : r;
+  }
+  s.voxel_size = r_min > 0.0 ? std::min(density_voxel_size, 0.5 * r_min) : density_voxel_size;
+  return s;
+}
+
+void writeVolumesVdb(const std::string& path, const World& world, const VdbFrameInfo& info) {
+  if (!(info.voxel_size > 0.0)) throw std::runtime_error(path + ": voxel size must be positive");
+  initOpenVdb();
+
+  // Density and velocity from one splat, on a transform shared by both.
+  auto [density, velocity] = splatMass(world, info.voxel_size);
+  const openvdb::math::Transform::Ptr xform =
+      openvdb::math::Transform::createLinearTransform(info.voxel_size);
+  density->setTransform(xform);
+  density->setName("density");
+  density->setGridClass(openvdb::GRID_FOG_VOLUME);
+  addFrameMetadata(*density, info, "kg/m^3");
+  velocity->setTransform(xform);
+  velocity->setName("v");
+  velocity->setGridClass(openvdb::GRID_UNKNOWN);
+  velocity->setVectorType(openvdb::VEC_CONTRAVARIANT_RELATIVE);
+  addFrameMetadata(*velocity, info, "m/s");
+  openvdb::GridPtrVec grids{density, velocity};
+
+  // The optional level set of the material's surface.
+  if (info.surface) {
+    const SurfaceSampling s = surfaceSampling(world, info.voxel_size);
+    FloatGrid::Ptr surface = particleSurface(world, s);
+    surface->setName("surface");
+    addFrameMetadata(*surface, info, "m");
+    surface->insertMeta("particle_radius", openvdb::DoubleMetadata(s.radius));
+    grids.push_back(surface);
+  }
+  for (auto& g : grids) g->setCreator("triad 0.1.0");
+
+  // Write beside the target, make the UUID deterministic, rename into place.
+  openvdb::MetaMap file_meta;
+  addFrameMetadata(file_meta, info, nullptr);
+  const std::string tmp = path + ".tmp" + std::to_string(::getpid());
+  try {
+    openvdb::io::File file(tmp);
+    file.write(grids, file_meta);
+    file.close();
+    makeUuidDeterministic(tmp);
+    std::error_code ec;
+    fs::rename(tmp, path, ec);
+    if (ec) throw std::runtime_error("cannot rename into place: " + ec.message());
+  } catch (const std::exception& e) {
+    std::error_code ignored;
+    fs::remove(tmp, ignored);
+    throw std::runtime_error(path + ": " + e.what());
+  }
+}
+
+std::string checkVolumesVdb(const std::string& path) {
+  initOpenVdb();
+  try {
+    openvdb::io::File file(path);
+    file.open(/*delayLoad=*/false);
+    std::string missing;
+    for (const char* name : {"density", "v"})
+      if (!file.hasGrid(name)) missing += missing.empty() ? name : std::string(", ") + name;
+    file.close();
+    return missing.empty() ? std::string() : "no grid " + missing;
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+}
+
+}  // namespace triad
