@@ -167,15 +167,4 @@ std::optional<ResumePoint> resumeFromCheckpoint(const SceneDesc& scene, const st
   return std::nullopt;
 }
 
-void annotateRunRecordResumed(const std::string& run_json, int from_frame) {
-  nlohmann::ordered_json j;
-  {
-    std::ifstream in(run_json);
-    j = nlohmann::ordered_json::parse(in);
-  }
-  j["resumed"] = {{"from_frame", from_frame >= 0 ? nlohmann::ordered_json(from_frame)
-                                                 : nlohmann::ordered_json(nullptr)}};
-  writeFileAtomically(run_json, [&](std::ostream& out) { out << j.dump(2) << "\n"; });
-}
-
 }  // namespace triad

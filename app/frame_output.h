@@ -54,7 +54,5 @@ std::optional<ResumePoint> resumeFromCheckpoint(const SceneDesc& scene, const st
                                                 const std::string& scene_hash, World& world,
                                                 Solver& solver);
 
-// Adds "resumed": {"from_frame": k or null} to the run record just written.
-void annotateRunRecordResumed(const std::string& run_json, int from_frame);
 
 }  // namespace triad

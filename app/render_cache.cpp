@@ -1,13 +1,122 @@
 #include "app/render_cache.h"
 
+#include <chrono>
 #include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <regex>
+#include <string>
+
+#include "app/run_scene.h"
+#include "import/scene_loader.h"
+#include "render/particle_ply_reader.h"
+#include "render/png_writer.h"
+#include "render/preview_writer.h"
+#include "sim/errors.h"
 
 namespace triad {
 
+namespace fs = std::filesystem;
+
+namespace {
+
+int badInput(const std::string& msg) {
+  std::fprintf(stderr, "triad: error: %s\n", msg.c_str());
+  return kExitBadInput;
+}
+
+// The scene that made the cache, as run.json names it ("" when unknown).
+std::string scenePathFromRunRecord(const std::string& cache_dir) {
+  std::ifstream in(runRecordPath(cache_dir));
+  if (!in) return "";
+  try {
+    const nlohmann::json j = nlohmann::json::parse(in);
+    if (j.contains("scene") && j["scene"].contains("path") && j["scene"]["path"].is_string())
+      return j["scene"]["path"].get<std::string>();
+  } catch (const std::exception&) {
+  }
+  return "";
+}
+
+}  // namespace
+
 int renderCache(const RenderCacheOptions& options) {
-  std::fprintf(stderr, "triad: error: %s: re-rendering previews is not implemented yet\n",
-               options.cache_dir.c_str());
-  return 1;
+  const std::string dir = options.cache_dir;
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) return badInput(dir + ": no such cache directory");
+  // llvmpipe's rasterizer threads (read when the context is created).
+  if (options.threads > 0) setenv("LP_NUM_THREADS", std::to_string(options.threads).c_str(), 1);
+
+  // Settings: the cache's preview/settings.json, else the scene run.json names.
+  render::PreviewSettings settings;
+  const std::string settings_path = render::previewSettingsPath(dir);
+  bool write_settings = false;
+  try {
+    if (fs::exists(settings_path, ec)) {
+      settings = render::readPreviewSettings(settings_path);
+    } else {
+      const std::string scene_path = scenePathFromRunRecord(dir);
+      if (scene_path.empty() || !fs::exists(scene_path, ec))
+        return badInput(settings_path + ": not found, and " + runRecordPath(dir) +
+                        " names no readable scene to take the camera from" +
+                        (scene_path.empty() ? "" : " (" + scene_path + " is missing)"));
+      std::fprintf(stderr, "triad: note: %s not found; using the scene %s that %s names\n",
+                   settings_path.c_str(), scene_path.c_str(), runRecordPath(dir).c_str());
+      const SceneDesc scene = loadScene(scene_path);
+      settings = render::previewSettingsForScene(scene);
+      write_settings = true;
+    }
+  } catch (const InputError& e) {
+    return badInput(e.what());
+  }
+
+  // Frames: every particles/particles.FFFF.ply, in frame order.
+  std::map<int, std::string> frames;
+  const fs::path particles_dir = fs::path(dir) / "particles";
+  const std::regex name(R"(particles\.(\d{4,})\.ply)");
+  if (fs::is_directory(particles_dir, ec))
+    for (const auto& entry : fs::directory_iterator(particles_dir, ec)) {
+      std::smatch m;
+      const std::string file = entry.path().filename().string();
+      if (std::regex_match(file, m, name)) frames[std::atoi(m[1].str().c_str())] = entry.path().string();
+    }
+  if (frames.empty())
+    return badInput(particles_dir.string() + ": no particle caches (particles.FFFF.ply) to render");
+
+  const auto t0 = std::chrono::steady_clock::now();
+  int rendered = 0;
+  try {
+    if (write_settings) render::writePreviewSettings(dir, settings);
+    else fs::create_directories(fs::path(dir) / "preview");
+    render::PreviewRenderer renderer(settings);
+    render::PreviewFrame frame;
+    for (const auto& [number, ply] : frames) {
+      try {
+        render::readParticlesPly(ply, frame);
+      } catch (const InputError& e) {
+        std::fprintf(stderr, "triad: error: %s\n", e.what());
+        if (rendered > 0)
+          std::fprintf(stderr, "triad: %d earlier frame(s) were re-rendered\n", rendered);
+        return kExitBadInput;
+      }
+      render::writePng(render::previewImagePath(dir, number), renderer.render(frame));
+      ++rendered;
+    }
+    render::writeContactSheet(dir);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "triad: error: %s\n", e.what());
+    return kExitRunFailed;
+  }
+  const double secs =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::printf("rendered %d frame(s) at %dx%d in %.2f s: %s\ncontact sheet: %s\n", rendered,
+              settings.width, settings.height, secs,
+              (fs::path(dir) / "preview" / "preview.FFFF.png").string().c_str(),
+              render::contactSheetPath(dir).c_str());
+  return kExitOk;
 }
 
 }  // namespace triad

@@ -11,6 +11,7 @@
 #include "app/frame_output.h"
 #include "export/atomic_file.h"
 #include "export/run_record.h"
+#include "import/mesh_sampler.h"
 #include "import/scene_loader.h"
 #include "sim/errors.h"
 #include "sim/solver.h"
@@ -48,9 +49,16 @@ int runScene(const RunOptions& options) {
   SceneDesc scene;
   World world;
   std::string out_dir;
+  // One cache for the run: a mesh used twice is loaded and voxelized once.
+  auto mesh_cache = std::make_shared<MeshCache>();
+  auto printMeshWarnings = [&]() {
+    for (const MeshWarning& w : mesh_cache->warnings())
+      std::fprintf(stderr, "triad: warning: %s: %s\n", w.file.c_str(), w.text.c_str());
+  };
   try {
     scene = loadScene(options.scene_path);
-    world = buildWorld(scene);
+    world = buildWorld(scene, makeMeshSampler(mesh_cache));
+    printMeshWarnings();
     out_dir = options.out_dir.empty() ? scene.output.dir : options.out_dir;
     try {
       makeOutputDirectories(scene, out_dir);
@@ -59,6 +67,7 @@ int runScene(const RunOptions& options) {
                        e.what());
     }
   } catch (const InputError& e) {
+    printMeshWarnings();
     std::fprintf(stderr, "triad: error: %s\n", e.what());
     return kExitBadInput;
   }
@@ -104,6 +113,8 @@ int runScene(const RunOptions& options) {
     return kExitRunFailed;
   }
   rec.frames_written = resumed_from + 1;  // frames 0..resumed_from are on disk
+  rec.resume = options.resume;
+  rec.resumed_from_frame = resumed_from;
 
   // Step statistics of the whole run, across a resume.
   auto runSteps = [&]() {
@@ -138,7 +149,6 @@ int runScene(const RunOptions& options) {
     rec.error = error;
     rec.ended_utc = utcNow();
     writeRunRecord(runRecordPath(out_dir), rec);
-    if (options.resume) annotateRunRecordResumed(runRecordPath(out_dir), resumed_from);
   };
 
   // Everything a frame writes, in this order: the cache files, then the

@@ -16,6 +16,10 @@ void writeRunRecord(const std::string& path, const RunRecord& rec) {
   j["scene"] = {{"name", rec.scene_name}, {"path", rec.scene_path}, {"hash", rec.scene_hash}};
   j["finished"] = rec.finished;
   j["error"] = rec.error.empty() ? nlohmann::ordered_json(nullptr) : nlohmann::ordered_json(rec.error);
+  if (rec.resume)
+    j["resumed"] = {{"from_frame", rec.resumed_from_frame >= 0
+                                       ? nlohmann::ordered_json(rec.resumed_from_frame)
+                                       : nlohmann::ordered_json(nullptr)}};
   j["started_utc"] = rec.started_utc;
   j["ended_utc"] = rec.ended_utc;
   j["threads"] = rec.threads;

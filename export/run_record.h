@@ -25,6 +25,8 @@ struct RunRecord {
   size_t peak_rss_bytes = 0;
   size_t particle_bytes = 0;
   size_t grid_bytes = 0;
+  bool resume = false;           // run with --resume
+  int resumed_from_frame = -1;    // the checkpoint's frame; -1: started over
   bool finished = false;
   std::string error;  // empty when finished
   std::string started_utc, ended_utc;

@@ -2,15 +2,6 @@
 // itself (and vdb_print), the PLY particles through a small reader written
 // here that shares nothing with export/ply_writer.cpp.
 #include <gtest/gtest.h>
-// OpenVDB's headers must see the configuration Debian's library was built
-// with (FindOpenVDB's target defines these; this test gets only the library
-// to link through triad_export): a mismatch changes class layouts.
-#ifndef OPENVDB_ABI_VERSION_NUMBER
-#define OPENVDB_ABI_VERSION_NUMBER 10
-#endif
-#ifndef OPENVDB_USE_DELAYED_LOADING
-#define OPENVDB_USE_DELAYED_LOADING
-#endif
 #include <openvdb/io/File.h>
 #include <openvdb/openvdb.h>
 #include <sys/wait.h>
