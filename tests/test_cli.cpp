@@ -137,6 +137,34 @@ TEST(Cli, BadMaterialReferenceAndMissingFileExitTwo) {
   EXPECT_EQ(usage.status, 2);
 }
 
+// Mesh objects run end to end; a broken mesh exits 2 naming the file.
+TEST(Cli, MeshObjectsRunAndBrokenMeshesExitTwo) {
+  const fs::path dir = test::tempDir("cli_mesh");
+  fs::copy_file(fs::path(TRIAD_SOURCE_DIR) / "scenes/meshes/torus.obj", dir / "torus.obj");
+  json j = test::baseScene("mesh", {0.4, 0.4, 0.4}, 0.02);
+  j["frames"] = {{"count", 1}, {"fps", 24}};
+  j["materials"]["jelly"] = {{"model", "fixed_corotated"}, {"density", 1000},
+                             {"youngs_modulus", 5e4}, {"poisson_ratio", 0.3}};
+  j["objects"].push_back(
+      {{"name", "torus"}, {"kind", "mpm"}, {"material", "jelly"},
+       {"shape", {{"mesh", {{"path", "torus.obj"}, {"scale", 0.1}, {"translate", {0.2, 0.2, 0.2}}}}}}});
+  j["output"] = {{"vdb", false}, {"png", false}};
+  const Result ok =
+      triad(dir, "run " + test::writeScene(dir, j) + " --quiet --out " + (dir / "cache").string());
+  ASSERT_EQ(ok.status, 0) << ok.err;
+  const json rec = json::parse(slurp(dir / "cache/run.json"));
+  // Torus volume 2 pi^2 R r^2 at 8 particles per cell of (0.02 m)^3, within 5%.
+  const double expected = 2 * M_PI * M_PI * 0.1 * 0.04 * 0.04 / (0.02 * 0.02 * 0.02 / 8);
+  EXPECT_NEAR(rec["particles"]["total"].get<double>(), expected, 0.05 * expected);
+
+  std::ofstream(dir / "broken.obj") << "v 0 0 0\nv 1 0 0\nl 1 2\n";
+  j["objects"][0]["shape"]["mesh"]["path"] = "broken.obj";
+  const Result bad = triad(dir, "run " + test::writeScene(dir, j, "bad.json") + " --quiet --out " +
+                                     (dir / "bad").string());
+  EXPECT_EQ(bad.status, 2);
+  EXPECT_NE(bad.err.find("broken.obj"), std::string::npos) << bad.err;
+}
+
 // A run that goes non-finite stops with exit 1, names the step, particle and
 // object, and leaves every frame already written intact.
 TEST(Cli, BlowUpExitsOneKeepingFrames) {
