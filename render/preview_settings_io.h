@@ -1,0 +1,30 @@
+#pragma once
+// Preview settings from a scene, and their record in a cache
+// (`preview/settings.json`), so that `triad render CACHE_DIR` draws what the
+// run drew without the scene file.
+#include <string>
+
+#include "render/preview_renderer.h"
+#include "sim/scene_desc.h"
+
+namespace triad::render {
+
+// Resolution and camera from the scene's `render` block (automatic camera
+// when absent), the domain box, the drawn particle radius from dx and
+// particles_per_cell, and every object's name.
+PreviewSettings previewSettingsForScene(const SceneDesc& scene);
+
+// `OUT/preview/settings.json` and `OUT/preview/preview.FFFF.png`.
+std::string previewSettingsPath(const std::string& out_dir);
+std::string previewImagePath(const std::string& out_dir, int frame);
+std::string contactSheetPath(const std::string& out_dir);
+
+// Writes OUT/preview/settings.json atomically (creating OUT/preview).
+// Throws std::runtime_error naming the file.
+void writePreviewSettings(const std::string& out_dir, const PreviewSettings& settings,
+                          const std::string& scene_name = "");
+
+// Reads a settings file; throws triad::InputError naming the file and the key.
+PreviewSettings readPreviewSettings(const std::string& path);
+
+}  // namespace triad::render

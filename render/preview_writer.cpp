@@ -1,0 +1,81 @@
+#include "render/preview_writer.h"
+
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <map>
+#include <regex>
+
+#include "render/png_writer.h"
+
+namespace triad::render {
+
+namespace fs = std::filesystem;
+
+namespace {
+double seconds(std::chrono::steady_clock::time_point since) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
+}
+}  // namespace
+
+PreviewFrame previewFrameFromWorld(const World& world) {
+  PreviewFrame frame;
+  const size_t n = world.particleCount();
+  frame.xyz.reserve(n * 3);
+  frame.object.reserve(n);
+  for (const ParticleSet& set : world.sets) {
+    for (size_t i = 0; i < set.size(); ++i) {
+      const Vec3f& x = set.x[i];
+      frame.xyz.insert(frame.xyz.end(), {x.x(), x.y(), x.z()});
+    }
+    frame.object.insert(frame.object.end(), set.object.begin(), set.object.end());
+  }
+  return frame;
+}
+
+int writeContactSheet(const std::string& out_dir) {
+  const fs::path dir = fs::path(out_dir) / "preview";
+  std::map<int, fs::path> frames;
+  const std::regex name(R"(preview\.(\d{4,})\.png)");
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) return 0;
+  for (const auto& entry : fs::directory_iterator(dir, ec)) {
+    std::smatch m;
+    const std::string file = entry.path().filename().string();
+    if (std::regex_match(file, m, name)) frames[std::atoi(m[1].str().c_str())] = entry.path();
+  }
+  if (frames.empty()) return 0;
+  std::vector<Image> images;
+  std::vector<int> labels;
+  for (const auto& [frame, path] : frames) {
+    images.push_back(readPng(path.string()));
+    labels.push_back(frame);
+  }
+  writePng(contactSheetPath(out_dir), contactSheet(images, labels));
+  return int(images.size());
+}
+
+PreviewWriter::PreviewWriter(const SceneDesc& scene, const std::string& out_dir)
+    : out_dir_(out_dir), settings_(previewSettingsForScene(scene)) {
+  writePreviewSettings(out_dir_, settings_, scene.name);
+  renderer_ = std::make_unique<PreviewRenderer>(settings_);
+}
+
+PreviewWriter::~PreviewWriter() = default;
+
+double PreviewWriter::writeFrame(const World& world, int frame,
+                                 const std::vector<PreviewMesh>& meshes) {
+  const auto t0 = std::chrono::steady_clock::now();
+  PreviewFrame f = previewFrameFromWorld(world);
+  f.meshes = meshes;
+  writePng(previewImagePath(out_dir_, frame), renderer_->render(f));
+  return seconds(t0);
+}
+
+double PreviewWriter::finish() {
+  const auto t0 = std::chrono::steady_clock::now();
+  writeContactSheet(out_dir_);
+  return seconds(t0);
+}
+
+}  // namespace triad::render

@@ -1,0 +1,45 @@
+#pragma once
+// Previews in the run pipeline: frames built from a triad::World, written as
+// OUT/preview/preview.FFFF.png with one renderer kept for the whole run, and
+// the contact sheet OUT/preview/contact_sheet.png.
+#include <memory>
+#include <string>
+
+#include "render/preview_renderer.h"
+#include "render/preview_settings_io.h"
+#include "sim/world.h"
+
+namespace triad::render {
+
+// Every MPM particle of the world (positions and scene object indices).
+PreviewFrame previewFrameFromWorld(const World& world);
+
+// Thumbnails of every OUT/preview/preview.FFFF.png in frame order, labelled
+// with frame numbers, written atomically to OUT/preview/contact_sheet.png.
+// Returns the number of frames on the sheet (0: no previews, nothing written).
+// Throws std::runtime_error naming a file that cannot be read or written.
+int writeContactSheet(const std::string& out_dir);
+
+// What app/run_scene.cpp holds during a run with output.png.
+class PreviewWriter {
+ public:
+  // Creates OUT/preview, writes OUT/preview/settings.json and the renderer
+  // (OSMesa context). Throws std::runtime_error on failure.
+  PreviewWriter(const SceneDesc& scene, const std::string& out_dir);
+  ~PreviewWriter();
+
+  // Renders the world's particles (and `meshes`, world-space solids) and
+  // writes OUT/preview/preview.FFFF.png atomically. Returns seconds spent.
+  double writeFrame(const World& world, int frame, const std::vector<PreviewMesh>& meshes = {});
+  // Writes the contact sheet of every preview in OUT/preview. Returns seconds spent.
+  double finish();
+
+  const PreviewSettings& settings() const { return settings_; }
+
+ private:
+  std::string out_dir_;
+  PreviewSettings settings_;
+  std::unique_ptr<PreviewRenderer> renderer_;
+};
+
+}  // namespace triad::render
