@@ -7,12 +7,14 @@
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
+#include <memory>
 
 #include "app/frame_output.h"
 #include "export/atomic_file.h"
 #include "export/run_record.h"
 #include "import/mesh_sampler.h"
 #include "import/scene_loader.h"
+#include "render/preview_writer.h"
 #include "sim/errors.h"
 #include "sim/solver.h"
 #include "sim/world.h"
@@ -71,8 +73,16 @@ int runScene(const RunOptions& options) {
     std::fprintf(stderr, "triad: error: %s\n", e.what());
     return kExitBadInput;
   }
-  if (scene.output.png)
-    std::fprintf(stderr, "triad: note: PNG previews are not written yet\n");
+  // The preview renderer keeps one OSMesa context for the whole run.
+  std::unique_ptr<render::PreviewWriter> preview;
+  if (scene.output.png) {
+    try {
+      preview = std::make_unique<render::PreviewWriter>(scene, out_dir);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "triad: error: previews: %s\n", e.what());
+      return kExitRunFailed;
+    }
+  }
 
   rec.scene_name = scene.name;
   rec.scene_path = scene.source_path;
@@ -157,7 +167,8 @@ int runScene(const RunOptions& options) {
     const double t0 = omp_get_wtime();
     // Particles (PLY) and volumes (VDB).
     writeFrameCaches(scene, out_dir, world, frame);
-    // Preview renders of the frame belong here, before the checkpoint.
+    // The preview render.
+    if (preview) preview->writeFrame(world, frame);
     // The checkpoint, last: --resume trusts every file of a checkpointed frame.
     if (scene.output.checkpoints)
       writeFrameCheckpoint(out_dir, frame, rec.scene_hash, world, solver, runSteps());
@@ -196,6 +207,7 @@ int runScene(const RunOptions& options) {
   }
   progress.finish();
   try {
+    if (preview) output_seconds += preview->finish();  // the contact sheet
     record(true, "");
   } catch (const std::exception& e) {
     std::fprintf(stderr, "triad: error: %s\n", e.what());
