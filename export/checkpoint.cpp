@@ -52,6 +52,7 @@ static_assert(sizeof(SetHeader) == 24, "set header is 24 bytes");
 class Checksum {
  public:
   void update(const void* data, size_t n) {
+    if (n == 0) return;  // an empty array may have a null data pointer
     const auto* p = static_cast<const unsigned char*>(data);
     length_ += n;
     if (fill_ > 0) {  // complete a partial word first
@@ -135,6 +136,7 @@ class Reader {
   Reader(const char* p, size_t n) : p_(p), end_(p + n) {}
   void bytes(void* dst, size_t n) {
     if (size_t(end_ - p_) < n) throw CheckpointError("payload shorter than its contents");
+    if (n == 0) return;  // an empty array may have a null data pointer
     std::memcpy(dst, p_, n);
     p_ += n;
   }
