@@ -5,6 +5,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "cli_fixture.h"
 #include "scene_fixture.h"
 
 namespace triad {
@@ -13,29 +14,11 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-struct Result {
-  int status = -1;
-  std::string out, err;
-};
+using test::slurp;
+using Result = test::CliResult;
 
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-// Runs the triad executable with `args` (and an optional environment prefix).
 Result triad(const fs::path& dir, const std::string& args, const std::string& env = "") {
-  const fs::path out = dir / "stdout.txt", err = dir / "stderr.txt";
-  const std::string cmd = env + " " + TRIAD_EXE + " " + args + " >" + out.string() + " 2>" +
-                          err.string() + " </dev/null";
-  const int raw = std::system(cmd.c_str());
-  Result r;
-  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-  r.out = slurp(out);
-  r.err = slurp(err);
-  return r;
+  return test::runTriad(dir, args, env);
 }
 
 // Every material model in one small scene, colliding, so that a thread-count

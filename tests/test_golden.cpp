@@ -22,6 +22,7 @@
 #include "render/preview_renderer.h"
 #include "render/preview_settings_io.h"
 #include "render/preview_writer.h"
+#include "cli_fixture.h"
 #include "scene_fixture.h"
 #include "sim/solver.h"
 
@@ -224,29 +225,10 @@ TEST(GoldenMetric, MovedBlockAndMovedCameraFailNoisePasses) {
 
 // ---- `triad render CACHE_DIR` end to end ----
 
-struct Result {
-  int status = -1;
-  std::string out, err;
-};
+using test::slurp;
+using Result = test::CliResult;
 
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-Result triad(const fs::path& dir, const std::string& args) {
-  const fs::path out = dir / "stdout.txt", err = dir / "stderr.txt";
-  const std::string cmd = std::string(TRIAD_EXE) + " " + args + " >" + out.string() + " 2>" +
-                          err.string() + " </dev/null";
-  const int raw = std::system(cmd.c_str());
-  Result r;
-  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-  r.out = slurp(out);
-  r.err = slurp(err);
-  return r;
-}
+Result triad(const fs::path& dir, const std::string& args) { return test::runTriad(dir, args); }
 
 TEST(RenderCommand, RunThenRenderMatchesGolden) {
   const fs::path dir = test::tempDir("render_cmd");

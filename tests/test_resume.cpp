@@ -13,6 +13,7 @@
 #include <sstream>
 #include <thread>
 
+#include "cli_fixture.h"
 #include "scene_fixture.h"
 
 namespace triad {
@@ -21,28 +22,21 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
+using test::slurp;
+
 struct Result {
   int status = -1;
   std::string err;
 };
 
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
 // Runs `triad run SCENE --out OUT [extra]` to completion. One thread: on a
 // loaded machine OpenMP's barriers make two threads many times slower, and
 // tests/test_cli.cpp already checks that the bytes do not depend on it.
 Result runTriad(const std::string& scene, const fs::path& out, const std::string& extra = "") {
-  const fs::path err = out.string() + ".stderr";
-  const std::string cmd = std::string(TRIAD_EXE) + " run " + scene + " --out " + out.string() +
-                          " --quiet --threads 1 " + extra + " >/dev/null 2>" + err.string() +
-                          " </dev/null";
-  const int raw = std::system(cmd.c_str());
-  return {WIFEXITED(raw) ? WEXITSTATUS(raw) : -1, slurp(err)};
+  fs::create_directories(out.parent_path());
+  const test::CliResult r = test::runTriad(
+      out.parent_path(), "run " + scene + " --out " + out.string() + " --quiet --threads 1 " + extra);
+  return {r.status, r.err};
 }
 
 // Starts the same run and SIGKILLs it as soon as `marker` exists. Returns
