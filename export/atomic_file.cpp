@@ -12,18 +12,12 @@ namespace triad {
 
 namespace fs = std::filesystem;
 
-void writeFileAtomically(const std::string& path,
-                         const std::function<void(std::ostream&)>& write) {
+void writeFileViaTemporary(const std::string& path,
+                           const std::function<void(const std::string& tmp)>& write_to) {
   // A unique temporary name per process, so concurrent writers never collide.
   const std::string tmp = path + ".tmp" + std::to_string(::getpid());
   try {
-    {
-      std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-      if (!out) throw std::runtime_error("cannot open for writing");
-      write(out);
-      out.flush();
-      if (!out) throw std::runtime_error("write failed (disk full?)");
-    }
+    write_to(tmp);
     std::error_code ec;
     fs::rename(tmp, path, ec);
     if (ec) throw std::runtime_error("cannot rename into place: " + ec.message());
@@ -32,6 +26,17 @@ void writeFileAtomically(const std::string& path,
     fs::remove(tmp, ignored);
     throw std::runtime_error(path + ": " + e.what());
   }
+}
+
+void writeFileAtomically(const std::string& path,
+                         const std::function<void(std::ostream&)>& write) {
+  writeFileViaTemporary(path, [&](const std::string& tmp) {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out) throw std::runtime_error("cannot open for writing");
+    write(out);
+    out.flush();
+    if (!out) throw std::runtime_error("write failed (disk full?)");
+  });
 }
 
 void makeDirectories(const std::string& path) {

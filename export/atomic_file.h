@@ -12,6 +12,11 @@ namespace triad {
 // and std::runtime_error names the file.
 void writeFileAtomically(const std::string& path, const std::function<void(std::ostream&)>& write);
 
+// The same for writers that want a file name rather than a stream (OpenVDB,
+// libpng): write_to(tmp) writes the temporary, which is then renamed.
+void writeFileViaTemporary(const std::string& path,
+                           const std::function<void(const std::string& tmp)>& write_to);
+
 // Creates a directory and its parents; throws std::runtime_error naming it.
 void makeDirectories(const std::string& path);
 

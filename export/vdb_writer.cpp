@@ -1,5 +1,7 @@
 #include "export/vdb_writer.h"
 
+#include "export/atomic_file.h"
+
 // The only translation unit of export/ that includes OpenVDB (slow to compile).
 #include <openvdb/io/File.h>
 #include <openvdb/openvdb.h>
@@ -221,20 +223,12 @@ void writeVolumesVdb(const std::string& path, const World& world, const VdbFrame
   // Write beside the target, make the UUID deterministic, rename into place.
   openvdb::MetaMap file_meta;
   addFrameMetadata(file_meta, info, nullptr);
-  const std::string tmp = path + ".tmp" + std::to_string(::getpid());
-  try {
+  writeFileViaTemporary(path, [&](const std::string& tmp) {
     openvdb::io::File file(tmp);
     file.write(grids, file_meta);
     file.close();
     makeUuidDeterministic(tmp);
-    std::error_code ec;
-    fs::rename(tmp, path, ec);
-    if (ec) throw std::runtime_error("cannot rename into place: " + ec.message());
-  } catch (const std::exception& e) {
-    std::error_code ignored;
-    fs::remove(tmp, ignored);
-    throw std::runtime_error(path + ": " + e.what());
-  }
+  });
 }
 
 std::string checkVolumesVdb(const std::string& path) {
