@@ -121,7 +121,7 @@ void writeFrameCheckpoint(const std::string& out_dir, int frame, const std::stri
 void removeStaleTemporaries(const std::string& out_dir) {
   static const std::regex tmp(R"(.+\.tmp\d+)");
   for (const std::string& dir : {out_dir, out_dir + "/particles", out_dir + "/volumes",
-                                 checkpointDir(out_dir)}) {
+                                 out_dir + "/preview", checkpointDir(out_dir)}) {
     std::error_code ec;
     for (const auto& e : fs::directory_iterator(dir, ec)) {
       std::error_code ignored;
@@ -135,6 +135,20 @@ void removeCheckpoints(const std::string& out_dir) {
   for (const auto& [f, path] : listCheckpoints(checkpointDir(out_dir))) {
     std::error_code ignored;
     fs::remove(path, ignored);
+  }
+}
+
+void removeFramesAfter(const std::string& out_dir, int last_frame) {
+  static const std::regex frame_file(R"((particles|density|preview)\.(\d{4,})\.(ply|vdb|png))");
+  for (const std::string& dir : {out_dir + "/particles", out_dir + "/volumes", out_dir + "/preview"}) {
+    std::error_code ec;
+    for (const auto& e : fs::directory_iterator(dir, ec)) {
+      std::smatch m;
+      const std::string name = e.path().filename().string();
+      if (!std::regex_match(name, m, frame_file) || std::stoi(m[2].str()) <= last_frame) continue;
+      std::error_code ignored;
+      fs::remove(e.path(), ignored);
+    }
   }
 }
 

@@ -37,6 +37,12 @@ void removeStaleTemporaries(const std::string& out_dir);
 // from an earlier run for a later --resume).
 void removeCheckpoints(const std::string& out_dir);
 
+// Removes the frame files (particles, volumes, previews) numbered above
+// `last_frame`, left by an earlier, longer run into the same directory: they
+// would otherwise be mistaken for this run's frames (the contact sheet, a
+// renderer reading the sequence).
+void removeFramesAfter(const std::string& out_dir, int last_frame);
+
 // Where a resumed run continues: the state after `frame` has been restored.
 struct ResumePoint {
   int frame = 0;

@@ -102,6 +102,7 @@ int runScene(const RunOptions& options) {
   StepRecord before;  // step statistics of the run before it was resumed
   try {
     removeStaleTemporaries(out_dir);
+    removeFramesAfter(out_dir, scene.frames.count);
     if (options.resume) {
       if (auto rp = resumeFromCheckpoint(scene, out_dir, rec.scene_hash, world, solver)) {
         start_frame = resumed_from = rp->frame;

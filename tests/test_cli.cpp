@@ -92,6 +92,24 @@ TEST(Cli, WritesCacheAndRunRecord) {
   EXPECT_GT(rec["wall_seconds"]["phases"]["p2g"].get<double>(), 0.0);
 }
 
+// A shorter run into the directory of a longer one leaves no stale frames.
+TEST(Cli, RerunRemovesFramesBeyondTheNewCount) {
+  const fs::path dir = test::tempDir("cli_rerun");
+  json j = mixedScene();
+  j["frames"]["count"] = 3;
+  j["output"] = {{"vdb", true}, {"png", false}};
+  const std::string out = (dir / "cache").string();
+  ASSERT_EQ(triad(dir, "run " + test::writeScene(dir, j) + " --quiet --out " + out).status, 0);
+  ASSERT_TRUE(fs::exists(dir / "cache/particles/particles.0003.ply"));
+  j["frames"]["count"] = 1;
+  ASSERT_EQ(triad(dir, "run " + test::writeScene(dir, j) + " --quiet --out " + out).status, 0);
+  EXPECT_TRUE(fs::exists(dir / "cache/particles/particles.0001.ply"));
+  EXPECT_TRUE(fs::exists(dir / "cache/volumes/density.0001.vdb"));
+  for (const char* stale : {"particles/particles.0002.ply", "particles/particles.0003.ply",
+                            "volumes/density.0002.vdb", "volumes/density.0003.vdb"})
+    EXPECT_FALSE(fs::exists(dir / "cache" / stale)) << stale;
+}
+
 TEST(Cli, TypoInSceneExitsTwoNamingTheKey) {
   const fs::path dir = test::tempDir("cli_typo");
   json j = mixedScene();
