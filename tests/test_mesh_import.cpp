@@ -460,6 +460,51 @@ TEST_F(MeshImport, BrokenFilesAreInputErrors) {
   expectInputError(writeText("degenerate.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 2\n"), "no triangles");
 }
 
+// Real-world files, as other tools wrote them: Debian's assimp-testmodels
+// (installed by scripts/setup.sh).
+TEST_F(MeshImport, RealWorldFilesFromAssimpTestModels) {
+  const fs::path root = "/usr/share/assimp/models";
+  if (!fs::exists(root)) GTEST_SKIP() << "assimp-testmodels is not installed";
+  auto sampler = makeMeshSampler(std::make_shared<MeshCache>());
+  // Scale a file to fit 0.4 m and centre it in the unit domain.
+  auto placed = [&](const std::string& rel) {
+    MeshDesc d = desc((root / rel).string());
+    Vec3d lo, hi;
+    loadMeshFile(d.resolved_path).mesh.bounds(lo, hi);
+    d.scale = 0.4 / (hi - lo).maxCoeff();
+    const Vec3d c = 0.5 * (lo + hi) * d.scale;
+    d.translate = {0.5 - c.x(), 0.5 - c.y(), 0.5 - c.z()};
+    return d;
+  };
+  // One cube from four files and three formats: (0.4 m)^3 within 2%.
+  for (const char* f : {"OBJ/box.obj", "PLY/cube.ply", "PLY/cube_binary.ply",
+                        "glTF2/BoxTextured-glTF-Binary/BoxTextured.glb"})
+    EXPECT_NEAR(sampledVolume(sampler(placed(f), domain(0.02), 8), 0.02, 8), 0.064, 0.02 * 0.064)
+        << f;
+  // The same spider as ascii and binary STL gives the same particles.
+  const auto ascii = sampler(placed("STL/Spider_ascii.stl"), domain(0.02), 8);
+  EXPECT_GT(ascii.size(), 1000u);
+  EXPECT_EQ(asSet(ascii), asSet(sampler(placed("STL/Spider_binary.stl"), domain(0.02), 8)));
+  // A sphere with a hole is repaired with a warning and keeps a sphere's volume.
+  const MeshLoadResult holed = loadMesh(placed("STL/sphereWithHole.stl"));
+  EXPECT_GT(holed.boundary_edges, 0);
+  EXPECT_FALSE(holed.warnings.empty());
+  const double r = 0.2;
+  EXPECT_NEAR(sampledVolume(sampler(placed("STL/sphereWithHole.stl"), domain(0.02), 8), 0.02, 8),
+              4.0 / 3.0 * M_PI * r * r * r, 0.05 * 4.0 / 3.0 * M_PI * r * r * r);
+  // Files that cannot give a volume are input errors naming the file.
+  for (const char* f : {"PLY/points.ply", "glTF2/IndexOutOfRange/AllIndicesOutOfRange.gltf",
+                        "glTF2/MissingBin/BoxTextured.gltf"}) {
+    try {
+      sampler(desc((root / f).string()), domain(0.02), 8);
+      ADD_FAILURE() << f << " was accepted";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(fs::path(f).filename().string()), std::string::npos)
+          << e.what();
+    }
+  }
+}
+
 TEST_F(MeshImport, MeshOutsideTheDomainIsAnInputError) {
   MeshDesc d = desc(write(boxMesh({0, 0, 0}, {0.1, 0.1, 0.1}), "far.obj"));
   d.translate = {2, 0.5, 0.5};
