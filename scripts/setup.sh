@@ -13,8 +13,9 @@ PACKAGES=(
   libopenvdb-dev libboost-iostreams-dev libtbb-dev
   # render/: headless OpenGL and PNG
   libosmesa6-dev libpng-dev
-  # tests/ (vdb_print reads the VDB caches back independently)
-  libgtest-dev libopenvdb-tools
+  # tests/ (vdb_print reads the VDB caches back independently; assimp-testmodels
+  # holds real-world and broken meshes for the import tests)
+  libgtest-dev libopenvdb-tools assimp-testmodels
 )
 
 missing=()
