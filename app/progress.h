@@ -28,7 +28,6 @@ class Progress {
   bool quiet_ = false;
   int frames_;
   double end_time_;
-  double start_time_ = 0.0;
   std::chrono::steady_clock::time_point start_, last_draw_;
   double last_dt_ = 0.0;
 };
