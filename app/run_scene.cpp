@@ -59,7 +59,7 @@ int runScene(const RunOptions& options) {
   };
   try {
     scene = loadScene(options.scene_path);
-    world = buildWorld(scene, makeMeshSampler(mesh_cache));
+    world = buildSceneWorld(scene, mesh_cache);
     printMeshWarnings();
     out_dir = options.out_dir.empty() ? scene.output.dir : options.out_dir;
     try {

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "export/run_record.h"
+#include "import/mesh_sampler.h"
 #include "import/scene_loader.h"
 #include "sim/solver.h"
 #include "sim/world.h"
@@ -41,7 +42,7 @@ int main(int argc, char** argv) {
   if (sim_time < 0) sim_time = scene.frames.count / scene.frames.fps;
 
   const size_t rss_before = currentResidentBytes();
-  triad::World world = triad::buildWorld(scene);
+  triad::World world = triad::buildSceneWorld(scene);
   triad::Solver solver(world);
   const size_t n = world.particleCount();
 

@@ -222,6 +222,7 @@ CollisionSamples sampleCollision(const ShapeDesc& shape, const DomainDesc& domai
     for (size_t q = 0; q < cand.size(); ++q)
       if (sd[q] < 0.0f) kept.push_back(cand[q]);
     out.normal = asset->volume->gradients(kept);
+    out.phi = asset->volume->signedDistances(kept);
     for (const Vec3d& p : kept) out.x.push_back(p.cast<float>());
     return out;
   }
@@ -231,18 +232,41 @@ CollisionSamples sampleCollision(const ShapeDesc& shape, const DomainDesc& domai
       bool in = true;
       for (int d = 0; d < 3; ++d) in = in && p[d] >= b->min[d] && p[d] < b->max[d];
       if (!in) continue;
-      boxDistance(*b, p, &n);
+      out.phi.push_back(static_cast<float>(boxDistance(*b, p, &n)));
     } else {
       const auto& s = std::get<SphereDesc>(shape);
       const Vec3d r = p - toVec(s.center);
       if (r.squaredNorm() >= s.radius * s.radius) continue;
       const double len = r.norm();
       n = len > 0 ? Vec3d(r / len) : Vec3d(0, 1, 0);
+      out.phi.push_back(static_cast<float>(len - s.radius));
     }
     out.x.push_back(p.cast<float>());
     out.normal.push_back(n.cast<float>());
   }
   return out;
+}
+
+SolidSampler makeSolidSampler(std::shared_ptr<MeshCache> cache, double voxel_ratio) {
+  return [cache, voxel_ratio](const ShapeDesc& shape, const DomainDesc& domain, double density) {
+    SolidSamples out;
+    out.samples = sampleCollision(shape, domain, density, *cache, voxel_ratio);
+    if (const auto* m = std::get_if<MeshDesc>(&shape)) {
+      // The same load the samples came from (cached).
+      const TriangleMesh& mesh = cache->get(*m, domain, voxel_ratio)->load.mesh;
+      for (const Vec3d& p : mesh.positions) out.surface.vertices.push_back(p.cast<float>());
+      for (const auto& t : mesh.triangles)
+        out.surface.triangles.push_back({uint32_t(t[0]), uint32_t(t[1]), uint32_t(t[2])});
+    } else {
+      out.surface = primitiveSurface(shape);
+    }
+    return out;
+  };
+}
+
+World buildSceneWorld(const SceneDesc& scene, std::shared_ptr<MeshCache> cache) {
+  if (!cache) cache = std::make_shared<MeshCache>();
+  return buildWorld(scene, makeMeshSampler(cache), makeSolidSampler(cache));
 }
 
 }  // namespace triad

@@ -14,6 +14,7 @@
 #include "sim/collision_particles.h"
 #include "sim/sampling.h"
 #include "sim/scene_desc.h"
+#include "sim/world.h"
 
 namespace triad {
 
@@ -89,5 +90,14 @@ MeshSampler makeMeshSampler(std::shared_ptr<MeshCache> cache,
 CollisionSamples sampleCollision(const ShapeDesc& shape, const DomainDesc& domain,
                                  double density, MeshCache& cache,
                                  double voxel_ratio = kDefaultVoxelRatio);
+
+// The SolidSampler buildWorld takes for rigid (and elastic) objects:
+// sampleCollision plus the shape's surface (the loaded mesh, or
+// primitiveSurface) in world space.
+SolidSampler makeSolidSampler(std::shared_ptr<MeshCache> cache,
+                              double voxel_ratio = kDefaultVoxelRatio);
+
+// buildWorld with both samplers over one mesh cache (a new one if null).
+World buildSceneWorld(const SceneDesc& scene, std::shared_ptr<MeshCache> cache = nullptr);
 
 }  // namespace triad

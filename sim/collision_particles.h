@@ -3,15 +3,20 @@
 // voxel samples with a mass, a position and an outward unit normal, and the
 // rigid mass properties they imply. Plain Eigen; the sampling of shapes
 // (meshes through their signed distance field) lives in import/.
+#include <array>
+#include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "sim/math.h"
+#include "sim/scene_desc.h"
 
 namespace triad {
 
 struct CollisionSamples {
   std::vector<Vec3f> x;       // sample positions, world space
   std::vector<Vec3f> normal;  // outward unit normal (SDF gradient), interior samples too
+  std::vector<float> phi;     // signed distance to the surface at the sample (negative inside)
   float mass_per_sample = 0;    // density * spacing^3 (uniform density)
   float volume_per_sample = 0;  // spacing^3
   double spacing = 0;           // lattice spacing h; each sample stands for a cube of side h
@@ -29,5 +34,26 @@ struct MassProperties {
 // adds its own inertia m h^2 / 6 on the diagonal. With that term a box
 // whose faces lie on the sample cells' faces is exact at any resolution.
 MassProperties computeMassProperties(const CollisionSamples& samples);
+
+// A closed triangle surface, for caches and previews.
+struct TriSurface {
+  std::vector<Vec3f> vertices;
+  std::vector<std::array<uint32_t, 3>> triangles;
+};
+
+// A solid's collision particles and its surface, world space at t = 0.
+struct SolidSamples {
+  CollisionSamples samples;
+  TriSurface surface;
+};
+
+// Samples a rigid or elastic solid's shape (box, sphere or mesh) at uniform
+// `density`. Provided by import/ (mesh files); throws InputError.
+using SolidSampler =
+    std::function<SolidSamples(const ShapeDesc& shape, const DomainDesc& domain, double density)>;
+
+// Surfaces of the primitive shapes: a box's 12 triangles, a sphere as an
+// icosphere of 1280 triangles (within 0.3% of the radius).
+TriSurface primitiveSurface(const ShapeDesc& shape);
 
 }  // namespace triad

@@ -2,6 +2,7 @@
 // Small fixed-size linear algebra types shared by the solver. Particle and
 // grid data are single precision; tests instantiate templates in double.
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 namespace triad {
 
@@ -17,5 +18,6 @@ using Mat3f = Mat3<float>;
 using Vec3d = Vec3<double>;
 using Mat3d = Mat3<double>;
 using Vec3i = Eigen::Vector3i;
+using Quatd = Eigen::Quaterniond;
 
 }  // namespace triad

@@ -15,13 +15,25 @@ std::string objectKey(const SceneDesc& scene, size_t i) {
   return scene.source_path + ": objects[" + std::to_string(i) + "]";
 }
 
-const char* kindName(ObjectKind k) {
-  switch (k) {
-    case ObjectKind::Mpm: return "mpm";
-    case ObjectKind::Rigid: return "rigid";
-    case ObjectKind::Elastic: return "elastic";
+Vec3d toVec(const Vec3Desc& a) { return Vec3d(a[0], a[1], a[2]); }
+
+RigidBody buildRigidBody(const SceneDesc& scene, size_t i, const SolidSampler& sampler) {
+  const ObjectDesc& obj = scene.objects[i];
+  if (!sampler)
+    throw InputError(objectKey(scene, i), "rigid objects need a solid sampler (import/)");
+  SolidSamples s;
+  try {
+    s = sampler(obj.shape, scene.domain, obj.density);
+  } catch (const InputError& e) {
+    if (!e.where().empty()) throw;
+    throw InputError(objectKey(scene, i) + ".shape", e.what());
   }
-  return "?";
+  if (s.samples.size() == 0)
+    throw InputError(objectKey(scene, i) + ".shape",
+                     "the shape is thinner than the collision particle spacing dx/2 everywhere: "
+                     "no sample falls inside it");
+  return makeRigidBody(int(i), obj.name, s.samples, std::move(s.surface), obj.fixed, obj.friction,
+                       toVec(obj.velocity), toVec(obj.angular_velocity), scene.domain.dx);
 }
 
 }  // namespace
@@ -38,7 +50,8 @@ size_t World::particleBytes() const {
   return n;
 }
 
-World buildWorld(const SceneDesc& scene, const MeshSampler& mesh_sampler) {
+World buildWorld(const SceneDesc& scene, const MeshSampler& mesh_sampler,
+                 const SolidSampler& solid_sampler) {
   World world;
   world.scene = scene;
   world.object_particles.assign(scene.objects.size(), 0);
@@ -58,10 +71,14 @@ World buildWorld(const SceneDesc& scene, const MeshSampler& mesh_sampler) {
   uint32_t next_id = 0;
   for (size_t i = 0; i < scene.objects.size(); ++i) {
     const ObjectDesc& obj = scene.objects[i];
-    if (obj.kind != ObjectKind::Mpm)
+    if (obj.kind == ObjectKind::Elastic)
       throw InputError(objectKey(scene, i) + ".kind",
-                       std::string("'") + kindName(obj.kind) +
-                           "' objects are not implemented yet; only 'mpm' objects can be simulated");
+                       "'elastic' objects are not implemented yet; use 'mpm' or 'rigid'");
+    if (obj.kind == ObjectKind::Rigid) {
+      world.bodies.push_back(buildRigidBody(scene, i, solid_sampler));
+      world.object_particles[i] = world.bodies.back().r.size();
+      continue;
+    }
     std::vector<Vec3f> points;
     try {
       points = sampleShape(obj.shape, domain, ppc, mesh_sampler);

@@ -4,7 +4,9 @@
 #include <string>
 #include <vector>
 
+#include "sim/collision_particles.h"
 #include "sim/particles.h"
+#include "sim/rigid_body.h"
 #include "sim/sampling.h"
 #include "sim/scene_desc.h"
 
@@ -13,7 +15,8 @@ namespace triad {
 struct World {
   SceneDesc scene;
   std::vector<ParticleSet> sets;         // one per material (MPM objects)
-  std::vector<size_t> object_particles;  // particle count per scene object
+  std::vector<RigidBody> bodies;         // rigid objects, in scene order
+  std::vector<size_t> object_particles;  // particle (or collision sample) count per scene object
   double time = 0.0;                     // simulated time, s
   int64_t steps = 0;                     // substeps taken
 
@@ -24,6 +27,9 @@ struct World {
 // Sample every object and group particles by material. Throws InputError
 // (naming the object's key path) for what the scene asks but cannot be built.
 // Mesh shapes are sampled through `mesh_sampler` (import/ provides one).
-World buildWorld(const SceneDesc& scene, const MeshSampler& mesh_sampler = {});
+// Rigid objects get their collision particles and surface from
+// `solid_sampler` (import/ provides one for every shape).
+World buildWorld(const SceneDesc& scene, const MeshSampler& mesh_sampler = {},
+                 const SolidSampler& solid_sampler = {});
 
 }  // namespace triad

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "import/scene_loader.h"
+#include "import/mesh_sampler.h"
 #include "sim/world.h"
 
 namespace triad::test {
@@ -41,7 +42,7 @@ inline nlohmann::json box(const std::array<double, 3>& lo, const std::array<doub
 }
 
 inline World loadWorld(const std::filesystem::path& dir, const nlohmann::json& j) {
-  return buildWorld(loadScene(writeScene(dir, j)));
+  return buildSceneWorld(loadScene(writeScene(dir, j)));
 }
 
 struct Moments {

@@ -18,6 +18,7 @@
 #include <iostream>
 #include <sstream>
 
+#include "import/mesh_sampler.h"
 #include "render/png_writer.h"
 #include "render/preview_renderer.h"
 #include "render/preview_settings_io.h"
@@ -153,7 +154,7 @@ struct Simulated {
 Simulated simulate(const json& j) {
   const fs::path dir = test::tempDir(j["name"].get<std::string>());
   const SceneDesc scene = loadScene(test::writeScene(dir, j));
-  World w = buildWorld(scene);
+  World w = buildSceneWorld(scene);
   Solver solver(w);
   for (int f = 1; f <= scene.frames.count; ++f) solver.advanceTo(f / scene.frames.fps);
   return {previewSettingsForScene(scene), previewFrameFromWorld(w), scene.domain.dx};

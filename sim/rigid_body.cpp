@@ -1,0 +1,151 @@
+#include "sim/rigid_body.h"
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+
+namespace triad {
+
+namespace {
+
+// Rotation by angle a about principal axis k.
+Quatd axisRotation(int k, double a) {
+  return Quatd(Eigen::AngleAxisd(a, Vec3d::Unit(k)));
+}
+
+}  // namespace
+
+Vec3d RigidBody::applyInverseInertia(const Vec3d& a) const {
+  if (fixed) return Vec3d::Zero();
+  const Mat3d R = rotation();
+  return R * (R.transpose() * a).cwiseQuotient(moments);
+}
+
+Vec3d RigidBody::omega() const { return applyInverseInertia(state.L); }
+
+double RigidBody::kineticEnergy() const {
+  const Vec3d pi = rotation().transpose() * state.L;
+  return 0.5 * mass * state.v.squaredNorm() + 0.5 * pi.cwiseProduct(pi).cwiseQuotient(moments).sum();
+}
+
+void RigidBody::applyImpulse(const Vec3d& j, const Vec3d& p) {
+  if (fixed) return;
+  state.v += j / mass;
+  state.L += (p - state.x).cross(j);
+}
+
+int RigidBody::sampleAt(const Vec3d& p) const {
+  // World -> rest frame: rest = P R^T (p - x), with P the principal frame in the rest frame.
+  const Vec3d rest = principal * (state.q_principal.conjugate() * (p - state.x));
+  const Vec3d c = (rest - lattice_origin) / double(spacing);
+  Eigen::Vector3i i;
+  for (int d = 0; d < 3; ++d) {
+    i[d] = static_cast<int>(std::lround(c[d]));
+    if (i[d] < 0 || i[d] >= cell_dims[d]) return -1;
+  }
+  return cells[(size_t(i.x()) * cell_dims.y() + i.y()) * cell_dims.z() + i.z()];
+}
+
+void RigidBody::advance(double dt) {
+  if (fixed) return;
+  state.x += dt * state.v;
+  // Body-frame angular momentum pi; each sub-flow rotates the body about
+  // principal axis k by pi_k tau / I_k and pi the opposite way, which leaves
+  // the world angular momentum R pi unchanged.
+  Quatd q = state.q_principal;
+  Vec3d pi = q.conjugate() * state.L;
+  auto flow = [&](int k, double tau) {
+    const double a = pi[k] * tau / moments[k];
+    q = q * axisRotation(k, a);
+    pi = axisRotation(k, -a) * pi;
+  };
+  flow(0, 0.5 * dt);
+  flow(1, 0.5 * dt);
+  flow(2, dt);
+  flow(1, 0.5 * dt);
+  flow(0, 0.5 * dt);
+  state.q_principal = q.normalized();
+  // L is conserved by the free flow; recomputing it from pi would only add rounding.
+}
+
+RigidBody makeRigidBody(int object, const std::string& name, const CollisionSamples& samples,
+                        TriSurface surface, bool fixed, double friction, const Vec3d& velocity,
+                        const Vec3d& angular_velocity, double dx) {
+  RigidBody b;
+  b.object = object;
+  b.name = name;
+  b.fixed = fixed;
+  b.friction = static_cast<float>(friction);
+  const MassProperties mp = computeMassProperties(samples);
+  b.mass = mp.mass;
+  b.sample_mass = samples.mass_per_sample;
+  b.spacing = static_cast<float>(samples.spacing);
+
+  // Principal frame: eigenvectors of the inertia, made a proper rotation.
+  Eigen::SelfAdjointEigenSolver<Mat3d> eig(mp.inertia);
+  Mat3d P = eig.eigenvectors();
+  if (P.determinant() < 0) P.col(2) = -P.col(2);
+  b.moments = eig.eigenvalues().cwiseMax(1e-12 * std::max(1e-300, eig.eigenvalues().maxCoeff()));
+  b.principal = Quatd(P).normalized();
+  const Mat3d Pt = P.transpose();
+
+  // Sample lattice in the rest frame (all samples, so that contact queries
+  // find the interior too).
+  const double h = samples.spacing;
+  Vec3d lo = Vec3d::Constant(1e300), hi = Vec3d::Constant(-1e300);
+  for (const Vec3f& x : samples.x) {
+    lo = lo.cwiseMin(x.cast<double>() - mp.centre);
+    hi = hi.cwiseMax(x.cast<double>() - mp.centre);
+  }
+  if (!samples.x.empty()) {
+    b.lattice_origin = lo;
+    for (int d = 0; d < 3; ++d) b.cell_dims[d] = static_cast<int>(std::lround((hi[d] - lo[d]) / h)) + 1;
+    b.cells.assign(size_t(b.cell_dims.prod()), -1);
+  }
+
+  // Keep the samples near the surface, in the principal frame.
+  const double depth = kCouplingDepth * dx;
+  double rmax = 0.0;
+  for (size_t q = 0; q < samples.size(); ++q) {
+    const Vec3d rest = samples.x[q].cast<double>() - mp.centre;
+    rmax = std::max(rmax, rest.norm());
+    const float phi = samples.phi.empty() ? 0.0f : samples.phi[q];
+    int32_t index = -1;
+    if (phi >= -depth) {
+      index = static_cast<int32_t>(b.r.size());
+      b.r.push_back((Pt * rest).cast<float>());
+      b.n.push_back((Pt * samples.normal[q].cast<double>()).cast<float>());
+      b.phi.push_back(phi);
+    }
+    Eigen::Vector3i c;
+    for (int d = 0; d < 3; ++d) c[d] = static_cast<int>(std::lround((rest[d] - lo[d]) / h));
+    // Deep samples mark the cell as inside with the nearest kept sample unknown:
+    // -2 tells contact queries "deep inside".
+    b.cells[(size_t(c.x()) * b.cell_dims.y() + c.y()) * b.cell_dims.z() + c.z()] =
+        index >= 0 ? index : -2;
+  }
+  b.radius = static_cast<float>(rmax + h);
+
+  for (Vec3f& v : surface.vertices) v = (Pt * (v.cast<double>() - mp.centre)).cast<float>();
+  b.surface = std::move(surface);
+
+  b.state.x = mp.centre;
+  b.state.q_principal = b.principal;
+  if (!fixed) {
+    b.state.v = velocity;
+    b.state.L = mp.inertia * angular_velocity;
+  }
+  return b;
+}
+
+TriSurface worldSurface(const RigidBody& body) {
+  TriSurface s;
+  s.triangles = body.surface.triangles;
+  const Mat3d R = body.rotation();
+  s.vertices.reserve(body.surface.vertices.size());
+  for (const Vec3f& v : body.surface.vertices)
+    s.vertices.push_back((body.state.x + R * v.cast<double>()).cast<float>());
+  return s;
+}
+
+}  // namespace triad
