@@ -1,7 +1,9 @@
 #include "app/frame_output.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
+#include <map>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <regex>
@@ -25,40 +27,86 @@ std::string frameName(const std::string& dir, const char* stem, int frame, const
   return dir + "/" + stem + buf + ext;
 }
 
-// A particle cache is complete when its size is the header's plus the
-// vertex count times the record size the header declares (36 bytes).
-std::string checkParticlesPly(const std::string& path, size_t particles) {
+// Body meshes are NAME.FFFF.ply; names may hold dots, the frame is the last
+// number (groups: name, frame).
+const std::regex& bodyFilePattern() {
+  static const std::regex body_file(R"((.+)\.(\d{4,9})\.ply)");
+  return body_file;
+}
+
+// The header of a PLY file we wrote: its size and element counts.
+struct PlyHeader {
+  size_t bytes = 0;
+  std::map<std::string, size_t> elements;
+};
+
+// Reads the header; empty when the file is missing or has none.
+std::optional<PlyHeader> readPlyHeader(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
-  if (!in) return "missing";
-  std::string line, header;
-  size_t vertices = 0;
-  bool found = false;
-  while (std::getline(in, line) && header.size() < 4096) {
-    header += line + "\n";
+  if (!in) return std::nullopt;
+  PlyHeader h;
+  std::string line;
+  while (std::getline(in, line) && h.bytes < 4096) {
+    h.bytes += line.size() + 1;
     std::istringstream words(line);
     std::string a, b;
     words >> a >> b;
-    if (a == "element" && b == "vertex") words >> vertices;
-    if (line == "end_header") {
-      found = true;
-      break;
-    }
+    if (a == "element") words >> h.elements[b];
+    if (line == "end_header") return h;
   }
-  if (!found) return "no PLY header";
-  if (vertices != particles)
-    return std::to_string(vertices) + " particles, the scene has " + std::to_string(particles);
+  return std::nullopt;
+}
+
+// A cache is complete when its size is the header's plus each element's
+// count times its record size: 36 bytes a particle; 12 a body vertex and 13
+// a triangle (uchar count, three int indices).
+std::string checkPlySize(const std::string& path, const PlyHeader& h, size_t data_bytes) {
   std::error_code ec;
   const auto size = fs::file_size(path, ec);
-  if (ec || size != header.size() + vertices * 36) return "truncated";
+  if (ec || size != h.bytes + data_bytes) return "truncated";
   return "";
 }
 
+std::string checkParticlesPly(const std::string& path, size_t particles) {
+  const auto h = readPlyHeader(path);
+  if (!h) return fs::exists(path) ? "no PLY header" : "missing";
+  const size_t vertices = h->elements.count("vertex") ? h->elements.at("vertex") : 0;
+  if (vertices != particles)
+    return std::to_string(vertices) + " particles, the scene has " + std::to_string(particles);
+  return checkPlySize(path, *h, vertices * 36);
+}
+
+std::string checkBodyPly(const std::string& path, const RigidBody& body) {
+  const auto h = readPlyHeader(path);
+  if (!h) return fs::exists(path) ? "no PLY header" : "missing";
+  const size_t v = h->elements.count("vertex") ? h->elements.at("vertex") : 0;
+  const size_t f = h->elements.count("face") ? h->elements.at("face") : 0;
+  if (v != body.surface.vertices.size() || f != body.surface.triangles.size())
+    return std::to_string(v) + " vertices and " + std::to_string(f) + " faces, the body has " +
+           std::to_string(body.surface.vertices.size()) + " and " +
+           std::to_string(body.surface.triangles.size());
+  return checkPlySize(path, *h, v * 12 + f * 13);
+}
+
 // What is wrong with the frame's cache files (empty when they are complete).
+// Fills `states` with the state table's rows of frames 0..frame.
 std::string checkFrameCaches(const SceneDesc& scene, const std::string& out_dir, int frame,
-                             size_t particles) {
+                             const World& world, RigidStateLog& states) {
   if (scene.output.ply) {
     const std::string p = particlesPath(out_dir, frame);
-    const std::string why = checkParticlesPly(p, particles);
+    const std::string why = checkParticlesPly(p, world.particleCount());
+    if (!why.empty()) return p + ": " + why;
+  }
+  std::vector<std::string> names;
+  for (const RigidBody& b : world.bodies) {
+    const std::string p = bodyMeshPath(out_dir, b.name, frame);
+    const std::string why = checkBodyPly(p, b);
+    if (!why.empty()) return p + ": " + why;
+    names.push_back(b.name);
+  }
+  if (!names.empty()) {
+    const std::string p = rigidStatesPath(out_dir);
+    const std::string why = states.load(p, frame, names);
     if (!why.empty()) return p + ": " + why;
   }
   if (scene.output.vdb) {
@@ -81,6 +129,16 @@ std::string volumesPath(const std::string& out_dir, int frame) {
 
 std::string checkpointDir(const std::string& out_dir) { return out_dir + "/checkpoints"; }
 
+std::string bodiesDir(const std::string& out_dir) { return out_dir + "/bodies"; }
+
+std::string bodyMeshPath(const std::string& out_dir, const std::string& name, int frame) {
+  return frameName(bodiesDir(out_dir), name.c_str(), frame, "ply");
+}
+
+std::string rigidStatesPath(const std::string& out_dir) {
+  return bodiesDir(out_dir) + "/rigid_states.csv";
+}
+
 std::string checkpointPath(const std::string& out_dir, int frame) {
   return frameName(checkpointDir(out_dir), "state", frame, "bin");
 }
@@ -90,6 +148,9 @@ void makeOutputDirectories(const SceneDesc& scene, const std::string& out_dir) {
   if (scene.output.ply) makeDirectories(out_dir + "/particles");
   if (scene.output.vdb) makeDirectories(out_dir + "/volumes");
   if (scene.output.checkpoints) makeDirectories(checkpointDir(out_dir));
+  if (std::any_of(scene.objects.begin(), scene.objects.end(),
+                  [](const ObjectDesc& o) { return o.kind == ObjectKind::Rigid; }))
+    makeDirectories(bodiesDir(out_dir));
 }
 
 void writeFrameCaches(const SceneDesc& scene, const std::string& out_dir, const World& world,
@@ -107,6 +168,15 @@ void writeFrameCaches(const SceneDesc& scene, const std::string& out_dir, const 
   }
 }
 
+void writeFrameBodies(const std::string& out_dir, const World& world, int frame,
+                      RigidStateLog& states) {
+  if (world.bodies.empty()) return;
+  for (const RigidBody& b : world.bodies) writeBodyPly(bodyMeshPath(out_dir, b.name, frame), b, world.time);
+  // The table last: its rows of a frame say that frame's meshes are written.
+  states.record(frame, world.time, world.bodies);
+  states.write(rigidStatesPath(out_dir));
+}
+
 void writeFrameCheckpoint(const std::string& out_dir, int frame, const std::string& scene_hash,
                           const World& world, const Solver& solver, const StepRecord& record) {
   writeCheckpoint(checkpointPath(out_dir, frame), frame, scene_hash, world, solver, record);
@@ -121,7 +191,8 @@ void writeFrameCheckpoint(const std::string& out_dir, int frame, const std::stri
 void removeStaleTemporaries(const std::string& out_dir) {
   static const std::regex tmp(R"(.+\.tmp\d+)");
   for (const std::string& dir : {out_dir, out_dir + "/particles", out_dir + "/volumes",
-                                 out_dir + "/preview", checkpointDir(out_dir)}) {
+                                 out_dir + "/preview", bodiesDir(out_dir),
+                                 checkpointDir(out_dir)}) {
     std::error_code ec;
     for (const auto& e : fs::directory_iterator(dir, ec)) {
       std::error_code ignored;
@@ -140,15 +211,34 @@ void removeCheckpoints(const std::string& out_dir) {
 
 void removeFramesAfter(const std::string& out_dir, int last_frame) {
   static const std::regex frame_file(R"((particles|density|preview)\.(\d{4,})\.(ply|vdb|png))");
-  for (const std::string& dir : {out_dir + "/particles", out_dir + "/volumes", out_dir + "/preview"}) {
+  const std::pair<std::string, const std::regex*> dirs[] = {
+      {out_dir + "/particles", &frame_file},
+      {out_dir + "/volumes", &frame_file},
+      {out_dir + "/preview", &frame_file},
+      {bodiesDir(out_dir), &bodyFilePattern()}};
+  for (const auto& [dir, pattern] : dirs) {
     std::error_code ec;
     for (const auto& e : fs::directory_iterator(dir, ec)) {
       std::smatch m;
       const std::string name = e.path().filename().string();
-      if (!std::regex_match(name, m, frame_file) || std::stoi(m[2].str()) <= last_frame) continue;
+      if (!std::regex_match(name, m, *pattern) || std::stoi(m[2].str()) <= last_frame) continue;
       std::error_code ignored;
       fs::remove(e.path(), ignored);
     }
+  }
+}
+
+void removeOtherBodies(const std::string& out_dir, const World& world) {
+  const std::string dir = bodiesDir(out_dir);
+  std::error_code ec, ignored;
+  if (world.bodies.empty()) fs::remove(rigidStatesPath(out_dir), ignored);
+  for (const auto& e : fs::directory_iterator(dir, ec)) {
+    std::smatch m;
+    const std::string name = e.path().filename().string();
+    if (!std::regex_match(name, m, bodyFilePattern())) continue;
+    const bool ours = std::any_of(world.bodies.begin(), world.bodies.end(),
+                                  [&](const RigidBody& b) { return b.name == m[1].str(); });
+    if (!ours) fs::remove(e.path(), ignored);
   }
 }
 
@@ -169,9 +259,10 @@ std::optional<ResumePoint> resumeFromCheckpoint(const SceneDesc& scene, const st
         throw CheckpointError("frame " + std::to_string(ckpt.frame) + " outside 0.." +
                               std::to_string(scene.frames.count));
       // The frame's cache files must be complete too.
-      const std::string why = checkFrameCaches(scene, out_dir, ckpt.frame, world.particleCount());
+      RigidStateLog states;
+      const std::string why = checkFrameCaches(scene, out_dir, ckpt.frame, world, states);
       if (!why.empty()) throw CheckpointError("its frame's cache is incomplete: " + why);
-      ResumePoint rp{ckpt.frame, path, ckpt.record};
+      ResumePoint rp{ckpt.frame, path, ckpt.record, std::move(states)};
       restoreCheckpoint(std::move(ckpt), world, solver);
       return rp;
     } catch (const CheckpointError& e) {

@@ -1,10 +1,12 @@
 #pragma once
-// The files of one frame (particles, volumes, checkpoint) and finding where a
-// killed run can resume. runScene (app/run_scene.cpp) calls these in order.
+// The files of one frame (particles, volumes, rigid bodies, checkpoint) and
+// finding where a killed run can resume. runScene (app/run_scene.cpp) calls
+// these in order.
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "export/body_writer.h"
 #include "export/checkpoint.h"
 #include "sim/scene_desc.h"
 #include "sim/solver.h"
@@ -16,14 +18,25 @@ namespace triad {
 std::string volumesPath(const std::string& out_dir, int frame);
 std::string checkpointDir(const std::string& out_dir);
 std::string checkpointPath(const std::string& out_dir, int frame);
+std::string bodiesDir(const std::string& out_dir);
+std::string bodyMeshPath(const std::string& out_dir, const std::string& name, int frame);
+std::string rigidStatesPath(const std::string& out_dir);
 
-// Creates the folders the scene's outputs need under out_dir.
+// Creates the folders the scene's outputs need under out_dir (bodies/ when
+// the scene has rigid objects).
 void makeOutputDirectories(const SceneDesc& scene, const std::string& out_dir);
 
 // Writes the frame's cache files that the scene asks for: PLY particles and
 // the VDB volumes (voxel size output.vdb_voxel_size, else domain.dx).
 void writeFrameCaches(const SceneDesc& scene, const std::string& out_dir, const World& world,
                       int frame);
+
+// Writes the frame's rigid body caches: every body's surface, then the state
+// table with this frame's rows recorded in `states`. Body caches are small
+// and are written whatever output.ply/vdb/png say, like run.json. Nothing is
+// written for a world without bodies.
+void writeFrameBodies(const std::string& out_dir, const World& world, int frame,
+                      RigidStateLog& states);
 
 // Writes the frame's checkpoint, then deletes all but it and the one before.
 void writeFrameCheckpoint(const std::string& out_dir, int frame, const std::string& scene_hash,
@@ -37,28 +50,33 @@ void removeStaleTemporaries(const std::string& out_dir);
 // from an earlier run for a later --resume).
 void removeCheckpoints(const std::string& out_dir);
 
-// Removes the frame files (particles, volumes, previews) numbered above
-// `last_frame`, left by an earlier, longer run into the same directory: they
-// would otherwise be mistaken for this run's frames (the contact sheet, a
-// renderer reading the sequence).
+// Removes the frame files (particles, volumes, body meshes, previews)
+// numbered above `last_frame`, left by an earlier, longer run into the same
+// directory: they would otherwise be mistaken for this run's frames (the
+// contact sheet, a renderer reading the sequence).
 void removeFramesAfter(const std::string& out_dir, int last_frame);
+
+// Removes the body caches of an earlier run that are not this world's:
+// meshes of bodies it does not have, and the state table when it has none.
+void removeOtherBodies(const std::string& out_dir, const World& world);
 
 // Where a resumed run continues: the state after `frame` has been restored.
 struct ResumePoint {
   int frame = 0;
   std::string checkpoint;  // its path
   StepRecord record;       // step statistics of the run up to that frame
+  RigidStateLog states;    // rigid_states.csv rows of frames 0..frame (bodies only)
 };
 
 // Restores `world` and `solver` from the newest checkpoint in out_dir that
 // reads back intact, belongs to this scene file, fits the world built from
-// it, and whose frame's cache files are complete; nullopt (nothing changed)
+// it, and whose frame's cache files are complete (body meshes, and the state
+// table's rows of every frame up to it, included); nullopt (nothing changed)
 // if there is none. Checkpoints passed over are reported on stderr. Throws
 // InputError (exit status 2) when that checkpoint was written for a
 // different scene file.
 std::optional<ResumePoint> resumeFromCheckpoint(const SceneDesc& scene, const std::string& out_dir,
                                                 const std::string& scene_hash, World& world,
                                                 Solver& solver);
-
 
 }  // namespace triad

@@ -10,8 +10,10 @@
 #include <regex>
 #include <string>
 
+#include "app/frame_output.h"
 #include "app/run_scene.h"
 #include "import/scene_loader.h"
+#include "render/mesh_ply_reader.h"
 #include "render/particle_ply_reader.h"
 #include "render/png_writer.h"
 #include "render/preview_writer.h"
@@ -39,6 +41,22 @@ std::string scenePathFromRunRecord(const std::string& cache_dir) {
   } catch (const std::exception&) {
   }
   return "";
+}
+
+// The frame's rigid body meshes: bodies/NAME.FFFF.ply for each scene object
+// NAME that has one, coloured as its object. Names come from the settings,
+// so files of bodies that are not the scene's are not drawn.
+void readBodyMeshes(const std::string& dir, const render::PreviewSettings& settings, int frame,
+                    std::vector<render::PreviewMesh>& meshes) {
+  meshes.clear();
+  for (size_t i = 0; i < settings.object_names.size(); ++i) {
+    const std::string path = bodyMeshPath(dir, settings.object_names[i], frame);
+    std::error_code ec;
+    if (!fs::is_regular_file(path, ec)) continue;
+    render::PreviewMesh& m = meshes.emplace_back();
+    m.object = int(i);
+    render::readMeshPly(path, m);
+  }
 }
 
 }  // namespace
@@ -96,6 +114,7 @@ int renderCache(const RenderCacheOptions& options) {
     for (const auto& [number, ply] : frames) {
       try {
         render::readParticlesPly(ply, frame);
+        readBodyMeshes(dir, settings, number, frame.meshes);
       } catch (const InputError& e) {
         std::fprintf(stderr, "triad: error: %s\n", e.what());
         if (rendered > 0)

@@ -1,5 +1,7 @@
 #pragma once
-// `triad render CACHE_DIR`: re-render previews from an existing cache.
+// `triad render CACHE_DIR`: re-render previews from an existing cache: the
+// particles of every particles/particles.FFFF.ply with the rigid bodies of
+// that frame (bodies/NAME.FFFF.ply, NAME an object of preview/settings.json).
 #include <string>
 
 namespace triad {

@@ -90,6 +90,7 @@ int runScene(const RunOptions& options) {
   rec.particles = world.particleCount();
   for (size_t i = 0; i < scene.objects.size(); ++i)
     rec.object_particles.emplace_back(scene.objects[i].name, world.object_particles[i]);
+  rec.bodies = world.bodies.size();
   rec.frames_requested = scene.frames.count;
 
   Solver solver(world);
@@ -100,13 +101,16 @@ int runScene(const RunOptions& options) {
   int start_frame = 0;
   int resumed_from = -1;
   StepRecord before;  // step statistics of the run before it was resumed
+  RigidStateLog states;  // bodies/rigid_states.csv: rows of the frames written
   try {
     removeStaleTemporaries(out_dir);
     removeFramesAfter(out_dir, scene.frames.count);
+    removeOtherBodies(out_dir, world);
     if (options.resume) {
       if (auto rp = resumeFromCheckpoint(scene, out_dir, rec.scene_hash, world, solver)) {
         start_frame = resumed_from = rp->frame;
         before = rp->record;
+        states = std::move(rp->states);
         std::fprintf(stderr, "triad: resuming after frame %d from %s\n", rp->frame,
                      rp->checkpoint.c_str());
       } else {
@@ -166,9 +170,10 @@ int runScene(const RunOptions& options) {
   // checkpoint (its presence means the frame is complete), then run.json.
   auto writeFrame = [&](int frame) {
     const double t0 = omp_get_wtime();
-    // Particles (PLY) and volumes (VDB).
+    // Particles (PLY), volumes (VDB), rigid body meshes and states.
     writeFrameCaches(scene, out_dir, world, frame);
-    // The preview render.
+    writeFrameBodies(out_dir, world, frame, states);
+    // The preview render (rigid bodies drawn as meshes).
     if (preview) preview->writeFrame(world, frame);
     // The checkpoint, last: --resume trusts every file of a checkpointed frame.
     if (scene.output.checkpoints)

@@ -21,6 +21,7 @@ static_assert(sizeof(Vec3f) == 12 && sizeof(Mat3f) == 36, "Eigen fixed types mus
 constexpr char kMagic[8] = {'T', 'R', 'I', 'A', 'D', 'C', 'K', 'P'};
 constexpr char kEndMagic[8] = {'T', 'R', 'I', 'A', 'D', 'E', 'N', 'D'};
 constexpr uint32_t kHeaderBytes = 64;
+constexpr uint32_t kMaxNameBytes = 4096;
 constexpr size_t kTrailerBytes = 16;
 
 #pragma pack(push, 1)
@@ -43,9 +44,32 @@ struct SetHeader {
   uint8_t has_F, has_J;
   uint16_t pad;
 };
+// A RigidState as doubles, the quaternion as w x y z (Eigen's own storage
+// order is x y z w, which the file does not depend on).
+struct BodyRecord {
+  double x[3], q[4], v[3], L[3];
+};
 #pragma pack(pop)
 static_assert(sizeof(Header) == kHeaderBytes, "checkpoint header is 64 bytes");
 static_assert(sizeof(SetHeader) == 24, "set header is 24 bytes");
+static_assert(sizeof(BodyRecord) == 104, "body record is 13 doubles");
+
+BodyRecord toRecord(const RigidState& s) {
+  const Quatd& q = s.q_principal;
+  return {{s.x.x(), s.x.y(), s.x.z()},
+          {q.w(), q.x(), q.y(), q.z()},
+          {s.v.x(), s.v.y(), s.v.z()},
+          {s.L.x(), s.L.y(), s.L.z()}};
+}
+
+RigidState fromRecord(const BodyRecord& r) {
+  RigidState s;
+  s.x = Vec3d(r.x[0], r.x[1], r.x[2]);
+  s.q_principal = Quatd(r.q[0], r.q[1], r.q[2], r.q[3]);  // (w, x, y, z)
+  s.v = Vec3d(r.v[0], r.v[1], r.v[2]);
+  s.L = Vec3d(r.L[0], r.L[1], r.L[2]);
+  return s;
+}
 
 // FNV-1a 64 over little-endian 8-byte words (the tail zero-padded), then the
 // length: about 8 times faster than byte-wise FNV on large arrays.
@@ -104,6 +128,8 @@ size_t payloadBytes(const std::string& scene_hash, const World& world) {
   for (const ParticleSet& s : world.sets)
     n += sizeof(SetHeader) + arrayBytes(s.x) + arrayBytes(s.v) + arrayBytes(s.C) +
          arrayBytes(s.F) + arrayBytes(s.J) + arrayBytes(s.id) + arrayBytes(s.object);
+  n += 4;
+  for (const RigidBody& b : world.bodies) n += 4 + b.name.size() + sizeof(BodyRecord);
   return n;
 }
 
@@ -199,6 +225,12 @@ void writeCheckpoint(const std::string& path, int frame, const std::string& scen
       w.array(s.id);
       w.array(s.object);
     }
+    w.pod(uint32_t(world.bodies.size()));
+    for (const RigidBody& b : world.bodies) {
+      w.pod(uint32_t(b.name.size()));
+      w.bytes(b.name.data(), b.name.size());
+      w.pod(toRecord(b.state));
+    }
 
     // Trailer: checksum of all the above.
     const uint64_t sum = w.checksum();
@@ -266,6 +298,14 @@ Checkpoint readCheckpoint(const std::string& path) {
     r.array(s.object, n);
     c.sets.push_back(std::move(s));
   }
+  const uint32_t bodies = r.pod<uint32_t>();
+  for (uint32_t k = 0; k < bodies; ++k) {
+    const uint32_t name_len = r.pod<uint32_t>();
+    if (name_len > kMaxNameBytes) throw CheckpointError("body name too long");
+    std::string name(name_len, '\0');
+    r.bytes(name.data(), name_len);
+    c.bodies.emplace_back(std::move(name), fromRecord(r.pod<BodyRecord>()));
+  }
   if (!r.atEnd()) throw CheckpointError("payload longer than its contents");
   return c;
 }
@@ -287,6 +327,15 @@ void restoreCheckpoint(Checkpoint&& c, World& world, Solver& solver) {
       if (o >= objects) throw CheckpointError("particle of object index " + std::to_string(o) +
                                               " beyond the scene's " + std::to_string(objects));
   }
+  // Bodies are matched by name: a scene whose rigid objects were renamed or
+  // reordered is another scene (its hash differs too, but say what differs).
+  if (c.bodies.size() != world.bodies.size())
+    throw CheckpointError(std::to_string(c.bodies.size()) + " rigid bodies, the scene has " +
+                          std::to_string(world.bodies.size()));
+  for (size_t k = 0; k < c.bodies.size(); ++k)
+    if (c.bodies[k].first != world.bodies[k].name)
+      throw CheckpointError("rigid body " + std::to_string(k) + " is \"" + c.bodies[k].first +
+                            "\", the scene's is \"" + world.bodies[k].name + "\"");
   for (size_t k = 0; k < c.sets.size(); ++k) {
     ParticleSet& to = world.sets[k];
     ParticleSet& from = c.sets[k];
@@ -298,6 +347,7 @@ void restoreCheckpoint(Checkpoint&& c, World& world, Solver& solver) {
     to.id = std::move(from.id);
     to.object = std::move(from.object);
   }
+  for (size_t k = 0; k < c.bodies.size(); ++k) world.bodies[k].state = c.bodies[k].second;
   world.time = c.time;
   world.steps = c.steps;
   solver.restore(c.solver);

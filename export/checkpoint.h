@@ -4,7 +4,7 @@
 // uninterrupted run would. Materials are not stored: they are rebuilt from
 // the scene, whose hash the checkpoint records.
 //
-// File (checkpoints/state.FFFF.bin), little-endian, version 1:
+// File (checkpoints/state.FFFF.bin), little-endian, version 2:
 //   header   char[8] "TRIADCKP", u32 format version, u32 header bytes (= 64),
 //            u64 payload bytes, i32 frame, u32 set count, f64 time,
 //            i64 steps, u8[16] reserved (zero)
@@ -15,11 +15,16 @@
 //                         u8 has_F, u8 has_J, u16 0, then the arrays in order
 //                         x v (3 f32 each), C F (9 f32, column-major),
 //                         J (f32), id (u32), object (u16), F/J only if present
+//            bodies       (u32 count; per rigid body, in world order: u32 name
+//                         length, name bytes, then f64 x[3], q_principal[4]
+//                         as w x y z, v[3], L[3]: its RigidState, exactly)
 //   trailer  u64 checksum of header and payload (FNV-1a 64 over 8-byte words),
 //            char[8] "TRIADEND"
+// Other versions are refused (a resume then starts over from frame 0).
 #include <cstdint>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "sim/solver.h"
@@ -28,7 +33,7 @@
 namespace triad {
 
 // A checkpoint that cannot be used: unreadable, truncated, corrupt, of another
-// format version, or not matching the scene's particle sets.
+// format version, or not matching the scene's particle sets or rigid bodies.
 class CheckpointError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
@@ -42,12 +47,14 @@ struct Checkpoint {
   SolverState solver;
   StepRecord record;  // the solver's step statistics up to this frame
   std::vector<ParticleSet> sets;  // arrays, material index, mass, volume (no model)
+  std::vector<std::pair<std::string, RigidState>> bodies;  // name and state, world order
 };
 
-constexpr uint32_t kCheckpointVersion = 1;
+constexpr uint32_t kCheckpointVersion = 2;
 
-// Writes the world's particle sets and clock, the solver state and the frame
-// atomically to `path`. Throws std::runtime_error naming the file.
+// Writes the world's particle sets, rigid body states and clock, the solver
+// state and the frame atomically to `path`. Throws std::runtime_error naming
+// the file.
 void writeCheckpoint(const std::string& path, int frame, const std::string& scene_hash,
                      const World& world, const Solver& solver, const StepRecord& record);
 
@@ -56,8 +63,9 @@ void writeCheckpoint(const std::string& path, int frame, const std::string& scen
 Checkpoint readCheckpoint(const std::string& path);
 
 // Moves a checkpoint's state into `world` (built from the same scene) and
-// `solver`. Throws CheckpointError if the particle sets do not match the
-// world's (set count, material, mass, volume, F/J presence, object indices).
+// `solver`. Throws CheckpointError, changing nothing, if the particle sets do
+// not match the world's (set count, material, mass, volume, F/J presence,
+// object indices) or the rigid bodies do not (count, names in order).
 void restoreCheckpoint(Checkpoint&& ckpt, World& world, Solver& solver);
 
 // Checkpoint files in `dir` as (frame, path), newest first. Ignores other files.

@@ -26,6 +26,7 @@ void writeRunRecord(const std::string& path, const RunRecord& rec) {
   nlohmann::ordered_json per_object = nlohmann::ordered_json::object();
   for (const auto& [name, n] : rec.object_particles) per_object[name] = n;
   j["particles"] = {{"total", rec.particles}, {"per_object", per_object}};
+  j["bodies"] = rec.bodies;
   j["frames"] = {{"requested", rec.frames_requested}, {"written", rec.frames_written}};
   j["simulated_time"] = rec.simulated_time;
   j["steps"] = rec.steps;

@@ -14,6 +14,7 @@ struct RunRecord {
   int threads = 1;
   size_t particles = 0;
   std::vector<std::pair<std::string, size_t>> object_particles;  // in scene order
+  size_t bodies = 0;  // rigid bodies (bodies/NAME.FFFF.ply, bodies/rigid_states.csv)
   int frames_requested = 0;
   int frames_written = 0;  // frames 0..frames_written-1 are complete on disk
   double simulated_time = 0.0;

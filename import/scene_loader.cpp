@@ -38,6 +38,11 @@ const ParamDict::Choices<TransferScheme> kTransfers = {
     {"apic", TransferScheme::Apic}, {"pic", TransferScheme::Pic}, {"flip", TransferScheme::Flip}};
 const ParamDict::Choices<CouplingScheme> kCouplings = {{"three_grid", CouplingScheme::ThreeGrid},
                                                        {"single_grid", CouplingScheme::SingleGrid}};
+const ParamDict::Choices<ContactVelocity> kContactVelocities = {
+    {"after_update", ContactVelocity::AfterUpdate}, {"before_update", ContactVelocity::BeforeUpdate}};
+const ParamDict::Choices<SolidReadback> kReadbacks = {
+    {"momentum_conserving", SolidReadback::MomentumConserving},
+    {"combined", SolidReadback::Combined}};
 const ParamDict::Choices<MaterialModel> kModels = {
     {"fixed_corotated", MaterialModel::FixedCorotated},
     {"neo_hookean", MaterialModel::NeoHookean},
@@ -160,6 +165,10 @@ SolverDesc parseSolver(const ParamDict& root) {
     out.flip_ratio = s->getDouble("flip_ratio", out.flip_ratio, Range::closed(0, 1));
   }
   out.coupling = s->getEnum("coupling", out.coupling, kCouplings);
+  out.contact_velocity = s->getEnum("contact_velocity", out.contact_velocity, kContactVelocities);
+  out.solid_readback = s->getEnum("solid_readback", out.solid_readback, kReadbacks);
+  out.contact_iterations =
+      s->getInt("contact_iterations", out.contact_iterations, Range::closed(1, 1000));
   s->checkUnknownKeys({}, [&](const std::string& key) -> std::string {
     if (key != "flip_ratio") return {};
     return "it applies only when transfer is \"flip\", and transfer is " +

@@ -30,7 +30,19 @@ PreviewFrame previewFrameFromWorld(const World& world) {
     }
     frame.object.insert(frame.object.end(), set.object.begin(), set.object.end());
   }
+  for (const RigidBody& body : world.bodies)
+    frame.meshes.push_back(previewMesh(worldSurface(body), body.object));
   return frame;
+}
+
+PreviewMesh previewMesh(const TriSurface& surface, int object) {
+  PreviewMesh m;
+  m.object = object;
+  m.xyz.reserve(surface.vertices.size() * 3);
+  for (const Vec3f& v : surface.vertices) m.xyz.insert(m.xyz.end(), {v.x(), v.y(), v.z()});
+  m.triangles.reserve(surface.triangles.size() * 3);
+  for (const auto& t : surface.triangles) m.triangles.insert(m.triangles.end(), t.begin(), t.end());
+  return m;
 }
 
 int writeContactSheet(const std::string& out_dir) {
@@ -67,7 +79,7 @@ double PreviewWriter::writeFrame(const World& world, int frame,
                                  const std::vector<PreviewMesh>& meshes) {
   const auto t0 = std::chrono::steady_clock::now();
   PreviewFrame f = previewFrameFromWorld(world);
-  f.meshes = meshes;
+  f.meshes.insert(f.meshes.end(), meshes.begin(), meshes.end());
   writePng(previewImagePath(out_dir_, frame), renderer_->render(f));
   return seconds(t0);
 }

@@ -11,8 +11,12 @@
 
 namespace triad::render {
 
-// Every MPM particle of the world (positions and scene object indices).
+// Every MPM particle of the world (positions and scene object indices), and
+// every rigid body's surface where it is now, in its object's colour.
 PreviewFrame previewFrameFromWorld(const World& world);
+
+// A world-space surface as a mesh to draw in scene object `object`'s colour.
+PreviewMesh previewMesh(const TriSurface& surface, int object);
 
 // Thumbnails of every OUT/preview/preview.FFFF.png in frame order, labelled
 // with frame numbers, written atomically to OUT/preview/contact_sheet.png.
@@ -28,8 +32,9 @@ class PreviewWriter {
   PreviewWriter(const SceneDesc& scene, const std::string& out_dir);
   ~PreviewWriter();
 
-  // Renders the world's particles (and `meshes`, world-space solids) and
-  // writes OUT/preview/preview.FFFF.png atomically. Returns seconds spent.
+  // Renders the world's particles and rigid bodies (and `meshes`, more
+  // world-space solids) and writes OUT/preview/preview.FFFF.png atomically.
+  // Returns seconds spent.
   double writeFrame(const World& world, int frame, const std::vector<PreviewMesh>& meshes = {});
   // Writes the contact sheet of every preview in OUT/preview. Returns seconds spent.
   double finish();

@@ -16,6 +16,10 @@ using Vec3Desc = std::array<double, 3>;
 enum class BoundaryType { Slip, Sticky, Separate };
 enum class TransferScheme { Apic, Pic, Flip };
 enum class CouplingScheme { ThreeGrid, SingleGrid };
+// Open choices of coupling.md: which MPM velocity the collision compares
+// with the solid's, and what the solids read back from the grid.
+enum class ContactVelocity { AfterUpdate, BeforeUpdate };
+enum class SolidReadback { MomentumConserving, Combined };
 enum class MaterialModel { FixedCorotated, NeoHookean, Snow, DruckerPrager, Water };
 enum class ObjectKind { Mpm, Rigid, Elastic };
 
@@ -43,6 +47,9 @@ struct SolverDesc {
   TransferScheme transfer = TransferScheme::Apic;
   double flip_ratio = 0.95;  // FLIP share of the PIC/FLIP blend (transfer "flip")
   CouplingScheme coupling = CouplingScheme::ThreeGrid;
+  ContactVelocity contact_velocity = ContactVelocity::AfterUpdate;
+  SolidReadback solid_readback = SolidReadback::MomentumConserving;
+  int contact_iterations = 20;  // sequential-impulse passes for rigid contacts
 };
 
 // Every model's parameters in one flat struct; the loader fills the fields

@@ -53,6 +53,29 @@ Solver::Solver(World& world) : world_(world) {
     wave_speed_.push_back(waveSpeed(scene.materials[set.material]));
   for (const ParticleSet& set : world.sets)
     for (const Vec3f& v : set.v) max_speed_ = std::max(max_speed_, v.norm());
+  has_particles_ = world.particleCount() > 0;
+  if (!world.bodies.empty()) {
+    coupling_ = std::make_unique<GridCoupling>(scene.solver);
+    for (int d = 0; d < 3; ++d) {
+      contact_.lo[d] = domain.min[d];
+      contact_.hi[d] = domain.max[d];
+    }
+    contact_.wall_type = domain.boundary.type;
+    contact_.wall_friction = domain.boundary.friction;
+    contact_.iterations = scene.solver.contact_iterations;
+  }
+}
+
+const CouplingStats& Solver::couplingStats() const {
+  static const CouplingStats none;
+  return coupling_ ? coupling_->stats() : none;
+}
+
+double Solver::solidSpeed() const {
+  double s = 0.0;
+  for (const RigidBody& b : world_.bodies)
+    if (!b.fixed) s = std::max(s, b.state.v.norm() + b.omega().norm() * b.radius);
+  return s;
 }
 
 double Solver::stableDt() const {
@@ -60,7 +83,7 @@ double Solver::stableDt() const {
   for (float w : wave_speed_) c = std::max(c, w);
   // Hardened snow is stiffer: its wave speed grows with the square root.
   c *= std::sqrt(max_stiffness_scale_);
-  const double speed = double(c) + double(max_speed_);
+  const double speed = double(c) + std::max(double(max_speed_), solidSpeed());
   const SolverDesc& s = world_.scene.solver;
   double dt = s.max_dt;
   if (speed > 0.0) dt = std::min(dt, s.cfl * world_.scene.domain.dx / speed);
@@ -69,11 +92,18 @@ double Solver::stableDt() const {
 
 void Solver::step(double dt) {
   const float fdt = static_cast<float>(dt);
-  binParticles();
-  computeStress(fdt);
-  particlesToGrid();
-  updateGrid(fdt);
-  gridToParticles(fdt);
+  const bool solids = coupling_ != nullptr;
+  if (solids) predictSolids(dt);  // solids' own step: v_q* of every collision particle
+  if (has_particles_) {
+    binParticles();
+    computeStress(fdt);
+    particlesToGrid();              // contract step 2
+    if (solids) scatterSolids();    // steps 1, 3, 4
+    updateGrid(fdt);                // step 5
+    if (solids) collideSolids();    // step 6
+    gridToParticles(fdt);           // step 7
+  }
+  if (solids) advanceSolids(dt);    // step 8, then contacts and rigid motion
 
   world_.steps++;
   record_.steps++;
@@ -140,6 +170,77 @@ void Solver::gridToParticles(float dt) {
   max_speed_ = st.max_speed;
 }
 
+void Solver::predictSolids(double dt) {
+  PhaseTimer timer(times_.solids);
+  points_.clear();
+  const Vec3d g(world_.scene.gravity[0], world_.scene.gravity[1], world_.scene.gravity[2]);
+  for (RigidBody& b : world_.bodies) {
+    if (!b.fixed) b.state.v += dt * g;
+    points_.addSolid(b.sample_mass, b.friction, b.fixed);
+    const size_t first = points_.size(), n = b.r.size();
+    points_.x.resize(first + n);
+    points_.v.resize(first + n);
+    points_.n.resize(first + n);
+    const Mat3f R = b.rotation().cast<float>();
+    const Vec3f c = b.state.x.cast<float>(), v = b.state.v.cast<float>();
+    const Vec3f w = b.omega().cast<float>();
+#pragma omp parallel for schedule(static)
+    for (int64_t q = 0; q < int64_t(n); ++q) {
+      const Vec3f r = R * b.r[q];
+      points_.x[first + q] = c + r;
+      points_.v[first + q] = v + w.cross(r);
+      points_.n[first + q] = R * b.n[q];
+    }
+  }
+}
+
+void Solver::scatterSolids() {
+  PhaseTimer timer(times_.solids);
+  coupling_->scatter(points_, layout_, params_);
+  coupling_->keepPreUpdate(grid_);
+}
+
+void Solver::collideSolids() {
+  PhaseTimer timer(times_.solids);
+  coupling_->collide(grid_);
+}
+
+void Solver::advanceSolids(double dt) {
+  PhaseTimer timer(times_.solids);
+  coupling_->gather(points_, params_);
+  // Each body takes the momentum and angular momentum its collision
+  // particles gained. Only the change is read back: a body that touches no
+  // material keeps its motion exactly, instead of losing spin to the
+  // smoothing of a round trip through the grid.
+  for (size_t s = 0; s < world_.bodies.size(); ++s) {
+    RigidBody& b = world_.bodies[s];
+    if (b.fixed) continue;
+    const size_t first = points_.begin[s];
+    const size_t last = s + 1 < points_.begin.size() ? points_.begin[s + 1] : points_.size();
+    Vec3d dp = Vec3d::Zero(), dl = Vec3d::Zero();
+    for (size_t q = first; q < last; ++q) {
+      const Vec3d dv = points_.dv[q].cast<double>();
+      if (dv.isZero()) continue;
+      dp += dv;
+      dl += (points_.x[q].cast<double>() - b.state.x).cross(dv);
+    }
+    b.state.v += dp * (double(b.sample_mass) / b.mass);
+    b.state.L += dl * double(b.sample_mass);
+  }
+  contact_stats_ = resolveContacts(world_.bodies, contact_, dt);
+  for (RigidBody& b : world_.bodies) {
+    b.advance(dt);
+    if (!std::isfinite(b.state.x.sum() + b.state.v.sum() + b.state.L.sum() +
+                       b.state.q_principal.coeffs().sum())) {
+      std::ostringstream msg;
+      msg << "step " << world_.steps + 1 << " at t = " << world_.time << " s: rigid object '"
+          << b.name << "' became non-finite: centre (" << b.state.x.transpose() << "), velocity ("
+          << b.state.v.transpose() << ")";
+      throw SimulationError(msg.str());
+    }
+  }
+}
+
 void Solver::reportNonFinite() const {
   const SceneDesc& scene = world_.scene;
   for (const ParticleSet& set : world_.sets) {
@@ -159,8 +260,12 @@ void Solver::reportNonFinite() const {
 }
 
 size_t Solver::bytes() const {
+  size_t solids = 0;
+  if (coupling_)
+    solids = coupling_->bytes() + (points_.x.capacity() + points_.v.capacity() +
+                                   points_.n.capacity() + points_.dv.capacity()) * sizeof(Vec3f);
   return grid_.capacity() * sizeof(GridNode) + flip_grid_.capacity() * sizeof(GridNode) +
-         layout_.bytes() + binner_.bytes();
+         layout_.bytes() + binner_.bytes() + solids;
 }
 
 }  // namespace triad

@@ -2,9 +2,12 @@
 // The MLS-MPM time stepper. One step reads like the algorithm:
 // bin particles, compute stresses, P2G, grid update, G2P.
 #include <functional>
+#include <memory>
 #include <vector>
 
+#include "sim/coupling.h"
 #include "sim/grid_update.h"
+#include "sim/rigid_contact.h"
 #include "sim/sparse_grid.h"
 #include "sim/transfer.h"
 #include "sim/world.h"
@@ -14,7 +17,8 @@ namespace triad {
 // Wall-clock seconds spent in each phase of the step.
 struct PhaseTimes {
   double bin = 0, stress = 0, p2g = 0, grid = 0, g2p = 0;
-  double total() const { return bin + stress + p2g + grid + g2p; }
+  double solids = 0;  // coupling transfers, contacts and rigid integration
+  double total() const { return bin + stress + p2g + grid + g2p + solids; }
 };
 
 struct StepRecord {
@@ -34,8 +38,8 @@ class Solver {
  public:
   explicit Solver(World& world);
 
-  // Largest stable step now: the CFL limit on material speed plus the
-  // materials' wave speed, capped by solver.max_dt.
+  // Largest stable step now: the CFL limit on material and solid speed plus
+  // the materials' wave speed, capped by solver.max_dt.
   double stableDt() const;
 
   // One substep of length dt.
@@ -57,6 +61,9 @@ class Solver {
   }
 
   const PhaseTimes& phaseTimes() const { return times_; }
+  // The last step's coupling and contact counts (zero without solids).
+  const CouplingStats& couplingStats() const;
+  const ContactStats& contactStats() const { return contact_stats_; }
   const StepRecord& record() const { return record_; }
   // Bytes held by grids and binning buffers (capacity).
   size_t bytes() const;
@@ -67,6 +74,11 @@ class Solver {
   void particlesToGrid();
   void updateGrid(float dt);
   void gridToParticles(float dt);
+  void predictSolids(double dt);
+  void scatterSolids();
+  void collideSolids();
+  void advanceSolids(double dt);
+  double solidSpeed() const;
   [[noreturn]] void reportNonFinite() const;
 
   World& world_;
@@ -75,12 +87,19 @@ class Solver {
   Vec3f gravity_;
   std::vector<float> wave_speed_;  // per set, at rest
   bool flip_ = false;
+  bool has_particles_ = false;  // no MPM material: only solids move
   int64_t fault_step_ = -1;
 
   Binner binner_;
   GridLayout layout_;
   std::vector<GridNode> grid_;
   std::vector<GridNode> flip_grid_;
+
+  // Solids: only built when the scene has any.
+  std::unique_ptr<GridCoupling> coupling_;
+  SolidPoints points_;
+  ContactSettings contact_;
+  ContactStats contact_stats_;
 
   float max_speed_ = 0.0f;
   float max_stiffness_scale_ = 1.0f;

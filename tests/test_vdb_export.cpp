@@ -345,8 +345,9 @@ TEST(CheckpointFile, RoundTripAndDamage) {
     EXPECT_EQ(0, std::memcmp(a.v.data(), b.v.data(), a.size() * sizeof(Vec3f)));
     EXPECT_EQ(0, std::memcmp(a.C.data(), b.C.data(), a.size() * sizeof(Mat3f)));
     ASSERT_EQ(a.F.size(), b.F.size());
-    if (!a.F.empty())  // water has no F (and memcmp may not take null pointers)
+    if (!a.F.empty()) {  // water has no F (and memcmp may not take null pointers)
       EXPECT_EQ(0, std::memcmp(a.F.data(), b.F.data(), a.F.size() * sizeof(Mat3f)));
+    }
     EXPECT_EQ(a.J, b.J);
     EXPECT_EQ(a.id, b.id);
     EXPECT_EQ(a.object, b.object);

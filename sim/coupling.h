@@ -1,0 +1,98 @@
+#pragma once
+// Coupling of MPM material with solids through collocated grids
+// (../shared/specs/coupling.md). The MPM grid is the solver's own; the
+// volumetric grid lives here, on the nodes of the MPM grid's blocks that
+// solids reach: a node without MPM mass takes no part in any collision, so
+// the volumetric grid never needs nodes the MPM grid lacks. The combined
+// grid is never stored: each shared node forms it on the fly.
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "sim/math.h"
+#include "sim/scene_desc.h"
+#include "sim/sparse_grid.h"
+#include "sim/transfer.h"
+
+namespace triad {
+
+// The collision particles of every solid for one step, world space.
+// Points of solid s are [begin[s], begin[s+1]), the last solid's up to size().
+struct SolidPoints {
+  std::vector<Vec3f> x;   // position at the start of the step
+  std::vector<Vec3f> v;   // velocity v_q* from the solid's own solver
+  std::vector<Vec3f> n;   // outward unit normal
+  std::vector<Vec3f> dv;  // out (gather): velocity change the grid gave the point
+  std::vector<size_t> begin;
+  std::vector<float> mass;      // per solid: mass per point, kg
+  std::vector<float> friction;  // per solid: Coulomb coefficient against MPM material
+  std::vector<uint8_t> fixed;   // per solid: immovable (infinite mass)
+
+  size_t size() const { return x.size(); }
+  size_t solids() const { return mass.size(); }
+  void clear();
+  // Starts the points of a new solid; returns its index.
+  size_t addSolid(float point_mass, float mu, bool is_fixed);
+};
+
+// What a coupling step did, for tests and the run record.
+struct CouplingStats {
+  size_t active_points = 0;  // collision particles whose stencil met the MPM grid
+  size_t shared_nodes = 0;   // nodes with both MPM and solid mass
+  size_t collisions = 0;     // shared nodes that were approaching (three grids)
+};
+
+class GridCoupling {
+ public:
+  explicit GridCoupling(const SolverDesc& solver) : solver_(solver) {}
+
+  // Contract steps 1 and 4: scatter the points' mass, momentum and normals
+  // (and their solids' friction and fixedness) onto the MPM grid's nodes.
+  // Call after the MPM P2G (step 2), before the grid update.
+  void scatter(const SolidPoints& points, const GridLayout& layout, const TransferParams& p);
+
+  // Remembers the MPM velocities before the grid update where the chosen
+  // variant needs them (contact_velocity before_update, solid_velocity combined).
+  void keepPreUpdate(const std::vector<GridNode>& grid);
+
+  // Step 6 with three grids: an inelastic, frictional collision on every
+  // shared node whose MPM material approaches the solid. With a single grid
+  // both sides take the mass-weighted velocity instead (they stick).
+  // `grid` holds MPM velocities after the grid update; it is changed in place.
+  void collide(std::vector<GridNode>& grid);
+
+  // Step 8: each point's velocity change from the grid (points.dv), either
+  // the opposite of the impulses the MPM side got (momentum conserving) or
+  // the combined grid's velocity minus the solid's own (as the note writes).
+  void gather(SolidPoints& points, const TransferParams& p) const;
+
+  const CouplingStats& stats() const { return stats_; }
+  size_t bytes() const;
+
+ private:
+  // Solid data on one node: sums of w m, w m v, w n, w m mu, w m [fixed].
+  struct SolidNode {
+    float m, p[3], n[3], mu, fixed_m;
+  };
+  // A base block of active points: its points and the slots of the eight
+  // grid blocks its stencils reach (-1: not in the MPM grid).
+  struct PointBlock {
+    uint64_t key;
+    uint32_t first, last;  // range in order_
+    std::array<int32_t, 8> slot;
+  };
+
+  SolverDesc solver_;
+  std::vector<SolidNode> nodes_;       // per slot * 64 + node
+  std::vector<Vec3f> delta_;           // per slot node: velocity change felt by the solids
+  std::vector<Vec3f> pre_;             // per slot node: MPM velocity before the update
+  std::vector<uint32_t> slot_block_;   // per slot: grid block index
+  std::vector<int32_t> block_slot_;    // per grid block: slot or -1
+  std::vector<uint32_t> order_;        // active points grouped by base block
+  std::vector<PointBlock> blocks_;
+  std::array<std::vector<uint32_t>, 8> colour_blocks_;
+  std::vector<uint64_t> point_key_;    // per point: base block key
+  CouplingStats stats_;
+};
+
+}  // namespace triad

@@ -1,0 +1,336 @@
+// Rigid body output: surface PLYs (export/body_writer, render/mesh_ply_reader),
+// the state table and its resume semantics (RigidStateLog), checkpoints of
+// body state (format version 2), and bodies in previews.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+
+#include "export/body_writer.h"
+#include "export/checkpoint.h"
+#include "render/mesh_ply_reader.h"
+#include "render/preview_writer.h"
+#include "scene_fixture.h"
+#include "sim/errors.h"
+#include "sim/solver.h"
+
+namespace triad {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// An MPM cube, a free rigid box and a fixed rigid sphere.
+json bodiesScene(const std::string& box_name = "crate") {
+  json j = test::baseScene("bodies", {1, 1, 1}, 0.05);
+  j["materials"]["jelly"] = {{"model", "fixed_corotated"}, {"density", 1000},
+                             {"youngs_modulus", 5e4}, {"poisson_ratio", 0.3}};
+  j["objects"] = {
+      {{"name", "blob"}, {"kind", "mpm"}, {"material", "jelly"},
+       {"shape", test::box({0.1, 0.1, 0.1}, {0.3, 0.3, 0.3})}},
+      {{"name", box_name}, {"kind", "rigid"}, {"density", 500},
+       {"shape", test::box({0.5, 0.5, 0.5}, {0.7, 0.6, 0.8})}},
+      {{"name", "ball"}, {"kind", "rigid"}, {"density", 500}, {"fixed", true},
+       {"shape", {{"sphere", {{"center", {0.5, 0.2, 0.5}}, {"radius", 0.1}}}}}}};
+  return j;
+}
+
+// Moves and spins body `k` to an arbitrary, non-trivial state.
+void perturb(World& w, size_t k, double s) {
+  RigidState& st = w.bodies[k].state;
+  st.x += Vec3d(0.01, -0.02, 0.03) * s;
+  st.q_principal = (st.q_principal * Quatd(Eigen::AngleAxisd(0.3 * s, Vec3d(1, 2, 3).normalized())))
+                       .normalized();
+  st.v = Vec3d(0.1, -1.0 / 3.0, 0.25) * s;
+  st.L = Vec3d(1e-3, -2e-4, 1.0 / 7.0) * s;
+}
+
+std::vector<std::string> lines(const std::string& text) {
+  std::vector<std::string> out;
+  std::istringstream s(text);
+  for (std::string l; std::getline(s, l);) out.push_back(l);
+  return out;
+}
+
+TEST(BodyPly, WritesTheWorldSurfaceAndReadsItBack) {
+  const fs::path dir = test::tempDir("body_ply");
+  World w = test::loadWorld(dir, bodiesScene());
+  ASSERT_EQ(w.bodies.size(), 2u);
+  perturb(w, 0, 1.0);
+  const RigidBody& crate = w.bodies[0];
+  const std::string path = (dir / "crate.0001.ply").string();
+  writeBodyPly(path, crate, 0.5);
+
+  const std::string bytes = slurp(path);
+  const std::string header =
+      "ply\nformat binary_little_endian 1.0\ncomment triad body crate t=0.5\n"
+      "element vertex 8\nproperty float x\nproperty float y\nproperty float z\n"
+      "element face 12\nproperty list uchar int vertex_indices\nend_header\n";
+  ASSERT_EQ(bytes.substr(0, header.size()), header);
+  EXPECT_EQ(bytes.size(), header.size() + 8 * 12 + 12 * 13);
+
+  render::PreviewMesh m;
+  render::readMeshPly(path, m);
+  const TriSurface s = worldSurface(crate);
+  ASSERT_EQ(m.xyz.size(), s.vertices.size() * 3);
+  for (size_t i = 0; i < s.vertices.size(); ++i)
+    for (int d = 0; d < 3; ++d) EXPECT_EQ(m.xyz[i * 3 + d], s.vertices[i][d]);
+  ASSERT_EQ(m.triangles.size(), s.triangles.size() * 3);
+  for (size_t t = 0; t < s.triangles.size(); ++t)
+    for (int c = 0; c < 3; ++c) EXPECT_EQ(m.triangles[t * 3 + c], s.triangles[t][c]);
+}
+
+TEST(MeshPly, SplitsPolygonsSkipsPropertiesAndRejectsBadFiles) {
+  const fs::path dir = test::tempDir("mesh_ply");
+  // One quad with a scalar before and after its list: two triangles.
+  std::string quad =
+      "ply\nformat binary_little_endian 1.0\nelement vertex 4\nproperty float x\n"
+      "property float y\nproperty float z\nproperty uchar red\nelement face 1\n"
+      "property short tag\nproperty list uchar uint vertex_index\nproperty float w\nend_header\n";
+  for (int i = 0; i < 4; ++i) {
+    const float v[3] = {float(i & 1), float(i >> 1), 0.5f};
+    quad.append(reinterpret_cast<const char*>(v), 12);
+    quad.push_back(char(200));
+  }
+  const int16_t tag = 7;
+  const uint32_t idx[4] = {0, 1, 3, 2};
+  const float wgt = 1.0f;
+  quad.append(reinterpret_cast<const char*>(&tag), 2);
+  quad.push_back(char(4));
+  quad.append(reinterpret_cast<const char*>(idx), 16);
+  quad.append(reinterpret_cast<const char*>(&wgt), 4);
+  std::ofstream(dir / "quad.ply", std::ios::binary) << quad;
+  render::PreviewMesh m;
+  render::readMeshPly((dir / "quad.ply").string(), m);
+  EXPECT_EQ(m.triangles, (std::vector<uint32_t>{0, 1, 3, 0, 3, 2}));
+  EXPECT_EQ(m.xyz.size(), 12u);
+  EXPECT_EQ(m.xyz[9], 1.0f);  // vertex 3 = (1, 1, 0.5)
+
+  // Truncated, another format, an index out of range, trailing bytes, absent.
+  std::string out_of_range = quad;
+  out_of_range[out_of_range.size() - 8] = 9;  // idx[3] = 9 > 3
+  std::ofstream(dir / "cut.ply", std::ios::binary) << quad.substr(0, quad.size() - 5);
+  std::ofstream(dir / "ascii.ply", std::ios::binary)
+      << "ply\nformat ascii 1.0\nelement vertex 0\nend_header\n";
+  std::ofstream(dir / "range.ply", std::ios::binary) << out_of_range;
+  std::ofstream(dir / "long.ply", std::ios::binary) << quad + "xx";
+  for (const char* bad : {"cut.ply", "ascii.ply", "range.ply", "long.ply", "missing.ply"}) {
+    try {
+      render::readMeshPly((dir / bad).string(), m);
+      ADD_FAILURE() << bad << " was read";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(bad), std::string::npos) << e.what();
+    }
+  }
+}
+
+TEST(RigidStateLog, RowsHoldStateWithFullPrecisionAndNoNegativeZero) {
+  const fs::path dir = test::tempDir("state_rows");
+  World w = test::loadWorld(dir, bodiesScene());
+  // At rest at t = 0: identity orientation, zero velocities written as 0.
+  w.bodies[0].state.v = Vec3d(-0.0, 0.0, -0.0);
+  const std::string row = rigidStateRow(0, 0.0, w.bodies[0]);
+  EXPECT_EQ(row.find("-0,"), std::string::npos) << row;
+  std::vector<std::string> f;
+  std::istringstream s(row);
+  for (std::string x; std::getline(s, x, ',');) f.push_back(x);
+  ASSERT_EQ(f.size(), 16u) << row;
+  EXPECT_EQ(f[0], "0");
+  EXPECT_EQ(f[1], "0");
+  EXPECT_EQ(f[2], "crate");
+  EXPECT_NEAR(std::stod(f[3]), 0.6, 1e-6);
+  EXPECT_NEAR(std::stod(f[4]), 0.55, 1e-6);
+  EXPECT_NEAR(std::stod(f[5]), 0.65, 1e-6);
+  EXPECT_NEAR(std::stod(f[6]), 1.0, 1e-12);
+  for (int k = 7; k < 16; ++k) EXPECT_NEAR(std::stod(f[k]), 0.0, 1e-12) << k;
+
+  // Moving: 9 significant digits of every value.
+  perturb(w, 0, 1.0);
+  const RigidBody& b = w.bodies[0];
+  const std::string moving = rigidStateRow(7, 7 / 24.0, b);
+  f.clear();
+  std::istringstream s2(moving);
+  for (std::string x; std::getline(s2, x, ',');) f.push_back(x);
+  ASSERT_EQ(f.size(), 16u);
+  EXPECT_EQ(f[1], "0.291666667");
+  const Quatd q = b.orientation();
+  const Vec3d omega = b.omega();
+  const double expect[13] = {b.state.x.x(), b.state.x.y(), b.state.x.z(), q.w(), q.x(), q.y(),
+                             q.z(), b.state.v.x(), b.state.v.y(), b.state.v.z(), omega.x(),
+                             omega.y(), omega.z()};
+  for (int k = 0; k < 13; ++k)
+    EXPECT_NEAR(std::stod(f[3 + k]), expect[k], 1e-8 * std::max(1.0, std::abs(expect[k]))) << k;
+  EXPECT_GT(omega.norm(), 0.0);
+}
+
+TEST(RigidStateLog, FramesWrittenAgainReplaceTheirRows) {
+  const fs::path dir = test::tempDir("state_replace");
+  const World w = test::loadWorld(dir, bodiesScene());
+  RigidStateLog log;
+  for (int f = 0; f <= 3; ++f) log.record(f, f / 24.0, w.bodies);
+  EXPECT_EQ(log.rows(), 8u);
+  EXPECT_EQ(log.lastFrame(), 3);
+  log.record(2, 2 / 24.0, w.bodies);
+  EXPECT_EQ(log.rows(), 6u);
+  EXPECT_EQ(log.lastFrame(), 2);
+  const std::string path = (dir / "rigid_states.csv").string();
+  log.write(path);
+  const std::vector<std::string> l = lines(slurp(path));
+  ASSERT_EQ(l.size(), 7u);
+  EXPECT_EQ(l[0], "frame,time,name,px,py,pz,qw,qx,qy,qz,vx,vy,vz,wx,wy,wz");
+  EXPECT_EQ(l[5].substr(0, 15), "2,0.0833333333,");
+}
+
+TEST(RigidStateLog, LoadKeepsTheRowsUpToTheResumedFrameByteForByte) {
+  const fs::path dir = test::tempDir("state_load");
+  World w = test::loadWorld(dir, bodiesScene());
+  const std::vector<std::string> names = {"crate", "ball"};
+  RigidStateLog full;
+  for (int f = 0; f <= 4; ++f) {
+    perturb(w, 0, 0.1);  // values with many digits
+    full.record(f, f / 24.0, w.bodies);
+  }
+  const std::string path = (dir / "full.csv").string();
+  full.write(path);
+  const std::vector<std::string> all = lines(slurp(path));
+  ASSERT_EQ(all.size(), 11u);
+
+  // Resumed after frame 2: rows of frames 0..2, then frame 3 recorded anew.
+  RigidStateLog log;
+  ASSERT_EQ(log.load(path, 2, names), "");
+  EXPECT_EQ(log.rows(), 6u);
+  const std::string kept = (dir / "kept.csv").string();
+  log.write(kept);
+  EXPECT_EQ(lines(slurp(kept)), std::vector<std::string>(all.begin(), all.begin() + 7));
+  ASSERT_EQ(log.load(path, 4, names), "");
+  log.write(kept);
+  EXPECT_EQ(slurp(kept), slurp(path));
+
+  // What is not a complete table of these bodies is refused, the log unchanged.
+  auto refused = [&](const std::string& text, int frame, const std::vector<std::string>& n,
+                     const std::string& why) {
+    const std::string p = (dir / "bad.csv").string();
+    std::ofstream(p, std::ios::binary) << text;
+    const std::string err = log.load(p, frame, n);
+    EXPECT_NE(err.find(why), std::string::npos) << "error: " << err << "\nexpected: " << why;
+    EXPECT_EQ(log.rows(), 10u);
+  };
+  const std::string text = slurp(path);
+  refused(text, 5, names, "before frame 5");
+  refused(text, 2, {"ball", "crate"}, "expected frame 0 of \"ball\"");
+  refused(text, 2, {"crate"}, "expected frame 1 of \"crate\"");
+  refused("frame,time\n" + text.substr(text.find('\n') + 1), 1, names, "header");
+  refused(text.substr(0, text.size() - 1), 4, names, "cut short");
+  std::string bad_number = text;
+  bad_number[bad_number.find(",crate,") + 7] = 'z';  // px "z.6..."
+  refused(bad_number, 0, names, "not a row of 16 values");
+  EXPECT_EQ(log.load((dir / "absent.csv").string(), 0, names), "missing");
+  // A table cut after a complete row still gives the frames it holds.
+  ASSERT_EQ(log.load(path, 1, names), "");
+  EXPECT_EQ(log.rows(), 4u);
+}
+
+TEST(CheckpointBodies, RoundTripsRigidStateExactly) {
+  const fs::path dir = test::tempDir("ckpt_bodies");
+  World w = test::loadWorld(dir, bodiesScene());
+  perturb(w, 0, 1.0);
+  perturb(w, 1, -0.5);  // a fixed body's state is stored as it is
+  w.time = 0.125;
+  w.steps = 150;
+  Solver solver(w);
+  const std::string path = (dir / "state.0003.bin").string();
+  writeCheckpoint(path, 3, "fnv1a64:0123456789abcdef", w, solver, solver.record());
+
+  Checkpoint c = readCheckpoint(path);
+  ASSERT_EQ(c.bodies.size(), 2u);
+  EXPECT_EQ(c.bodies[0].first, "crate");
+  EXPECT_EQ(c.bodies[1].first, "ball");
+  World fresh = test::loadWorld(dir, bodiesScene());
+  Solver fresh_solver(fresh);
+  restoreCheckpoint(std::move(c), fresh, fresh_solver);
+  for (size_t k = 0; k < 2; ++k) {
+    const RigidState &a = w.bodies[k].state, &b = fresh.bodies[k].state;
+    EXPECT_EQ(a.x, b.x) << k;
+    EXPECT_EQ(a.q_principal.coeffs(), b.q_principal.coeffs()) << k;
+    EXPECT_EQ(a.v, b.v) << k;
+    EXPECT_EQ(a.L, b.L) << k;
+  }
+  EXPECT_EQ(fresh.time, 0.125);
+  EXPECT_EQ(fresh.steps, 150);
+}
+
+TEST(CheckpointBodies, OtherBodiesAreRefusedAndNothingChanges) {
+  const fs::path dir = test::tempDir("ckpt_bodies_other");
+  World w = test::loadWorld(dir, bodiesScene());
+  perturb(w, 0, 1.0);
+  Solver solver(w);
+  const std::string path = (dir / "state.0001.bin").string();
+  writeCheckpoint(path, 1, "fnv1a64:0", w, solver, solver.record());
+
+  auto refusal = [&](const json& scene) -> std::string {
+    World other = test::loadWorld(dir, scene);
+    const std::vector<Vec3f> before = other.sets[0].x;
+    const Vec3d body_before = other.bodies.empty() ? Vec3d::Zero() : other.bodies[0].state.x;
+    Solver s(other);
+    try {
+      restoreCheckpoint(readCheckpoint(path), other, s);
+    } catch (const CheckpointError& e) {
+      EXPECT_EQ(other.sets[0].x, before);
+      if (!other.bodies.empty()) {
+        EXPECT_EQ(other.bodies[0].state.x, body_before);
+      }
+      return e.what();
+    }
+    ADD_FAILURE() << "restored into another scene's world";
+    return "";
+  };
+  const std::string renamed = refusal(bodiesScene("box"));
+  EXPECT_NE(renamed.find("\"crate\""), std::string::npos) << renamed;
+  EXPECT_NE(renamed.find("\"box\""), std::string::npos) << renamed;
+  json fewer = bodiesScene();
+  fewer["objects"].erase(2);
+  const std::string count = refusal(fewer);
+  EXPECT_NE(count.find("2 rigid bodies, the scene has 1"), std::string::npos) << count;
+
+  // Version 1 files (no bodies) are refused by version.
+  std::string bytes = slurp(path);
+  bytes[8] = 1;
+  std::ofstream(dir / "v1.bin", std::ios::binary) << bytes;
+  try {
+    readCheckpoint((dir / "v1.bin").string());
+    ADD_FAILURE() << "version 1 read";
+  } catch (const CheckpointError& e) {
+    EXPECT_NE(std::string(e.what()).find("version 1, expected 2"), std::string::npos) << e.what();
+  }
+}
+
+TEST(PreviewBodies, FrameFromWorldDrawsEveryBodyInItsObjectColour) {
+  const fs::path dir = test::tempDir("preview_bodies");
+  World w = test::loadWorld(dir, bodiesScene());
+  perturb(w, 0, 1.0);
+  const render::PreviewFrame f = render::previewFrameFromWorld(w);
+  EXPECT_EQ(f.object.size(), w.particleCount());
+  ASSERT_EQ(f.meshes.size(), 2u);
+  for (size_t k = 0; k < 2; ++k) {
+    const TriSurface s = worldSurface(w.bodies[k]);
+    const render::PreviewMesh& m = f.meshes[k];
+    EXPECT_EQ(m.object, w.bodies[k].object);
+    ASSERT_EQ(m.xyz.size(), s.vertices.size() * 3);
+    EXPECT_EQ(0, std::memcmp(m.xyz.data(), s.vertices.data(), m.xyz.size() * sizeof(float)));
+    EXPECT_EQ(m.triangles.size(), s.triangles.size() * 3);
+  }
+  EXPECT_EQ(f.meshes[0].object, 1);
+  EXPECT_EQ(f.meshes[1].object, 2);
+}
+
+}  // namespace
+}  // namespace triad
