@@ -43,6 +43,8 @@ const ParamDict::Choices<ContactVelocity> kContactVelocities = {
 const ParamDict::Choices<SolidReadback> kReadbacks = {
     {"momentum_conserving", SolidReadback::MomentumConserving},
     {"combined", SolidReadback::Combined}};
+const ParamDict::Choices<RigidNodeMass> kNodeMasses = {{"body_share", RigidNodeMass::BodyShare},
+                                                        {"node", RigidNodeMass::Node}};
 const ParamDict::Choices<MaterialModel> kModels = {
     {"fixed_corotated", MaterialModel::FixedCorotated},
     {"neo_hookean", MaterialModel::NeoHookean},
@@ -167,6 +169,9 @@ SolverDesc parseSolver(const ParamDict& root) {
   out.coupling = s->getEnum("coupling", out.coupling, kCouplings);
   out.contact_velocity = s->getEnum("contact_velocity", out.contact_velocity, kContactVelocities);
   out.solid_readback = s->getEnum("solid_readback", out.solid_readback, kReadbacks);
+  out.rigid_node_mass = s->getEnum("rigid_node_mass", out.rigid_node_mass, kNodeMasses);
+  out.coupling_iterations =
+      s->getInt("coupling_iterations", out.coupling_iterations, Range::closed(1, 100));
   out.contact_iterations =
       s->getInt("contact_iterations", out.contact_iterations, Range::closed(1, 1000));
   s->checkUnknownKeys({}, [&](const std::string& key) -> std::string {

@@ -33,10 +33,18 @@ void SolidPoints::clear() {
   mass.clear();
   friction.clear();
   fixed.clear();
+  body_mass.clear();
+  centre.clear();
+  inv_mass.clear();
+  inv_inertia.clear();
 }
 
-size_t SolidPoints::addSolid(float point_mass, float mu, bool is_fixed) {
+size_t SolidPoints::addSolid(float point_mass, float mu, bool is_fixed, double whole_mass) {
   begin.push_back(x.size());
+  body_mass.push_back(whole_mass);
+  centre.push_back(Vec3f::Zero());
+  inv_mass.push_back(0.0f);
+  inv_inertia.push_back(Mat3f::Zero());
   mass.push_back(point_mass);
   friction.push_back(mu);
   fixed.push_back(is_fixed ? 1 : 0);
@@ -74,6 +82,7 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
                    [](const Run& a, const Run& b) { return a.key < b.key; });
 
   // Base blocks whose stencils reach the MPM grid; their neighbours' slots.
+  layout_keys_ = &layout.grid_keys;
   blocks_.clear();
   block_slot_.assign(layout.gridBlocks(), kNoSlot);
   slot_block_.clear();
@@ -111,7 +120,7 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
     r = e;
   }
 
-  nodes_.assign(slot_block_.size() * kBlockNodes, SolidNode{});
+  nodes_.assign(slot_block_.size() * kBlockNodes, SolidNode{0, {0, 0, 0}, {0, 0, 0}, 0, 0, 0});
   for (auto& c : colour_blocks_) c.clear();
   for (size_t k = 0; k < blocks_.size(); ++k) {
     const Vec3i b = unpackBlock(blocks_[k].key);
@@ -149,6 +158,8 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
                 }
                 g.mu += w * m * mu;
                 g.fixed_m += w * fixed_m;
+                const int32_t tag = int32_t(s) + 1;
+                g.solid = g.solid == 0 || g.solid == tag ? tag : -1;
               }
         }
       }
@@ -173,62 +184,139 @@ void GridCoupling::keepPreUpdate(const std::vector<GridNode>& grid) {
     }
 }
 
-void GridCoupling::collide(std::vector<GridNode>& grid) {
+void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
+                           const TransferParams& p) {
+  delta_.assign(nodes_.size(), Vec3f::Zero());
   const bool single = solver_.coupling == CouplingScheme::SingleGrid;
   const bool before = solver_.contact_velocity == ContactVelocity::BeforeUpdate;
   const bool combined = solver_.solid_readback == SolidReadback::Combined;
-  delta_.assign(nodes_.size(), Vec3f::Zero());
-  size_t shared = 0, collisions = 0;
-#pragma omp parallel for schedule(static) reduction(+ : shared, collisions)
-  for (int64_t s = 0; s < int64_t(slot_block_.size()); ++s) {
-    for (int k = 0; k < kBlockNodes; ++k) {
-      const size_t i = size_t(s) * kBlockNodes + k;
-      const SolidNode& sn = nodes_[i];
-      GridNode& g = grid[size_t(slot_block_[s]) * kBlockNodes + k];
-      if (sn.m <= 0.0f || g.m <= 0.0f) continue;
-      ++shared;
-      const bool fixed = sn.fixed_m > 0.0f;  // any immovable solid: infinite mass
-      const float m_mpm = g.m, m_vol = sn.m;
-      const Vec3f v_vol = fixed ? Vec3f(Vec3f::Zero()) : Vec3f(Vec3f(sn.p[0], sn.p[1], sn.p[2]) / m_vol);
-      Vec3f v_mpm(g.v[0], g.v[1], g.v[2]);
+  const Vec3f node0 = p.shifted_origin - Vec3f::Constant(0.5f * p.dx);
 
-      if (single) {
-        // One grid: both sides move with the combined velocity.
-        const Vec3f vc =
-            fixed ? Vec3f(Vec3f::Zero()) : Vec3f((m_vol * v_vol + m_mpm * v_mpm) / (m_vol + m_mpm));
-        for (int d = 0; d < 3; ++d) g.v[d] = vc[d];
-        if (!fixed) delta_[i] = vc - v_vol;
-        continue;
-      }
-      if (combined && !fixed) {
-        // The combined grid of step 3, before the collision.
-        delta_[i] = m_mpm / (m_mpm + m_vol) * (pre_[i] - v_vol);
-      }
+  // The shared nodes, in slot order.
+  shared_.clear();
+  for (size_t s = 0; s < slot_block_.size(); ++s) {
+    const size_t gb = slot_block_[s];
+    for (int k = 0; k < kBlockNodes; ++k) {
+      const size_t i = s * kBlockNodes + k;
+      const SolidNode& sn = nodes_[i];
+      const GridNode& g = grid[gb * kBlockNodes + k];
+      if (sn.m <= 0.0f || g.m <= 0.0f) continue;
+      Shared c;
+      c.i = uint32_t(i);
+      c.g = uint32_t(gb * kBlockNodes + k);
+      c.fixed = sn.fixed_m > 0.0f;  // any immovable solid: infinite mass
+      c.solid = sn.solid > 0 && !c.fixed ? sn.solid - 1 : -1;
+      c.m_mpm = g.m;
+      c.m_vol = sn.m;
+      c.v_vol = c.fixed ? Vec3f(Vec3f::Zero()) : Vec3f(Vec3f(sn.p[0], sn.p[1], sn.p[2]) / sn.m);
+      c.v_mpm = Vec3f(g.v[0], g.v[1], g.v[2]);
+      c.v_cmp = before ? pre_[i] : c.v_mpm;
       const Vec3f nsum(sn.n[0], sn.n[1], sn.n[2]);
-      const float len = nsum.norm();
-      if (len <= 0.0f) continue;  // normals cancel (a sliver): no direction to push
-      const Vec3f nrm = nsum / len;
-      const Vec3f u = (before ? pre_[i] : v_mpm) - v_vol;
-      const float un = u.dot(nrm);
-      if (un >= 0.0f) continue;  // separating: material leaves freely
-      ++collisions;
-      // Reduced mass; an immovable solid takes the whole approach.
-      const float reduced = fixed ? m_mpm : m_mpm * m_vol / (m_mpm + m_vol);
-      const float J = -reduced * un;
-      Vec3f dv = (J / m_mpm) * nrm;
-      // Coulomb friction: can stop sliding, never reverse it.
-      const Vec3f ut = u - un * nrm;
-      const float ut_len = ut.norm();
-      if (ut_len > 0.0f) {
-        const float mu = sn.mu / m_vol;
-        dv -= std::min(mu * J / m_mpm, ut_len) / ut_len * ut;
-      }
-      v_mpm += dv;
-      for (int d = 0; d < 3; ++d) g.v[d] = v_mpm[d];
-      if (!combined && !fixed) delta_[i] = -(m_mpm / m_vol) * dv;
+      c.n = nsum.norm() > 0.0f ? Vec3f(nsum.normalized()) : Vec3f(Vec3f::Zero());
+      c.mu = sn.mu / sn.m;
+      const Vec3i node = unpackBlock((*layout_keys_)[gb]) * kBlockSize +
+                         Vec3i(k >> (2 * kBlockBits), (k >> kBlockBits) & (kBlockSize - 1),
+                               k & (kBlockSize - 1));
+      c.x = node0 + p.dx * node.cast<float>();
+      shared_.push_back(c);
     }
   }
-  stats_.shared_nodes = shared;
+  stats_.shared_nodes = shared_.size();
+
+  if (single) {
+    // One grid: both sides move with the combined velocity.
+    for (const Shared& c : shared_) {
+      const Vec3f vc = c.fixed ? Vec3f(Vec3f::Zero())
+                               : Vec3f((c.m_vol * c.v_vol + c.m_mpm * c.v_mpm) / (c.m_vol + c.m_mpm));
+      GridNode& g = grid[c.g];
+      for (int d = 0; d < 3; ++d) g.v[d] = vc[d];
+      if (!c.fixed) delta_[c.i] = vc - c.v_vol;
+    }
+    return;
+  }
+  if (combined) {
+    // The solids read the combined grid of step 3, from before the collision.
+    for (const Shared& c : shared_)
+      if (!c.fixed) delta_[c.i] = c.m_mpm / (c.m_mpm + c.m_vol) * (pre_[c.i] - c.v_vol);
+  }
+
+  // A rigid body's node moves with the whole body, so its node mass
+  // understates the inertia the material meets: with node masses alone, a
+  // floating slab lets water seep in and sinks (measured, bench/RESULTS.md).
+  // Each body's mass is shared over its approaching nodes instead
+  // (share = M / sum of their node masses, at least 1), which stops the
+  // material against a heavy body and never gives a light one more than
+  // its own mass times the approach speed.
+  const size_t nsolids = pts.solids();
+  std::vector<float> share(nsolids, 1.0f);
+  if (solver_.rigid_node_mass == RigidNodeMass::BodyShare) {
+    std::vector<double> contact(nsolids, 0.0);
+    for (const Shared& c : shared_)
+      if (c.solid >= 0 && (c.v_cmp - c.v_vol).dot(c.n) < 0.0f) contact[size_t(c.solid)] += c.m_vol;
+    for (size_t b = 0; b < nsolids; ++b)
+      if (pts.body_mass[b] > 0.0 && contact[b] > 0.0)
+        share[b] = float(std::max(1.0, pts.body_mass[b] / contact[b]));
+  }
+
+  // The collision, as accumulated impulses P on the MPM side of each node
+  // (normal part never pulling, tangential part within the Coulomb cone).
+  // Every node sees the solid's velocity as it was predicted, plus the
+  // change the impulses of all nodes made to the body so far: one pass is
+  // the contract's step 6; further passes (Jacobi) let the body's response
+  // feed back, so that material resting on a body does not sink into it by
+  // g dt^2 every step.
+  std::vector<Vec3f> dV(nsolids, Vec3f::Zero()), dW(nsolids, Vec3f::Zero());
+  const bool bodies_move = std::any_of(shared_.begin(), shared_.end(),
+                                       [](const Shared& c) { return c.solid >= 0; });
+  const int passes = bodies_move ? solver_.coupling_iterations : 1;
+  for (int pass = 0; pass < passes; ++pass) {
+#pragma omp parallel for schedule(static)
+    for (int64_t k = 0; k < int64_t(shared_.size()); ++k) {
+      Shared& c = shared_[k];
+      c.dP.setZero();
+      if (c.n.isZero()) continue;  // normals cancel (a sliver): no direction to push
+      Vec3f v_solid = c.v_vol;
+      if (c.solid >= 0) v_solid += dV[c.solid] + dW[c.solid].cross(c.x - pts.centre[c.solid]);
+      const Vec3f u = c.v_cmp + c.P / c.m_mpm - v_solid;
+      const float un = u.dot(c.n);
+      if (un >= 0.0f && c.lambda <= 0.0f) continue;  // separating: material leaves freely
+      const float m_solid = c.m_vol * (c.solid >= 0 ? share[c.solid] : 1.0f);
+      const float reduced = c.fixed ? c.m_mpm : c.m_mpm * m_solid / (c.m_mpm + m_solid);
+      const float lambda = std::max(0.0f, c.lambda - reduced * un);
+      // Coulomb friction: can stop sliding, never reverse it.
+      const Vec3f ut = u - un * c.n;
+      Vec3f T = c.T - reduced * ut;
+      const float limit = c.mu * lambda, len = T.norm();
+      if (len > limit) T *= limit / len;
+      c.dP = (lambda - c.lambda) * c.n + (T - c.T);
+      c.lambda = lambda;
+      c.T = T;
+      c.P += c.dP;
+    }
+    if (!bodies_move) break;
+    // Each body takes the opposite of its nodes' new impulses.
+    std::vector<Vec3f> dp(nsolids, Vec3f::Zero()), dl(nsolids, Vec3f::Zero());
+    for (const Shared& c : shared_) {
+      if (c.solid < 0) continue;
+      dp[c.solid] -= c.dP;
+      dl[c.solid] -= (c.x - pts.centre[c.solid]).cross(c.dP);
+    }
+    for (size_t b = 0; b < nsolids; ++b) {
+      dV[b] += pts.inv_mass[b] * dp[b];
+      dW[b] += pts.inv_inertia[b] * dl[b];
+    }
+  }
+
+  size_t collisions = 0;
+  for (const Shared& c : shared_) {
+    if (c.lambda <= 0.0f) continue;
+    ++collisions;
+    GridNode& g = grid[c.g];
+    const Vec3f v = c.v_mpm + c.P / c.m_mpm;
+    for (int d = 0; d < 3; ++d) g.v[d] = v[d];
+    // The opposite impulse goes to the solid's node.
+    if (!combined && !c.fixed) delta_[c.i] = -c.P / c.m_vol;
+  }
   stats_.collisions = collisions;
 }
 

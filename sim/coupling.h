@@ -27,12 +27,21 @@ struct SolidPoints {
   std::vector<float> mass;      // per solid: mass per point, kg
   std::vector<float> friction;  // per solid: Coulomb coefficient against MPM material
   std::vector<uint8_t> fixed;   // per solid: immovable (infinite mass)
+  // Per solid: the mass that moves as one with each of its nodes. A rigid
+  // body's node carries the whole body (its total mass); 0 for solids whose
+  // nodes move on their own (their node mass is all there is).
+  std::vector<double> body_mass;
+  // Per solid, for rigid bodies: centre of mass, inverse mass and world
+  // inverse inertia, so that the collision can feed back the body's response.
+  std::vector<Vec3f> centre;
+  std::vector<float> inv_mass;
+  std::vector<Mat3f> inv_inertia;
 
   size_t size() const { return x.size(); }
   size_t solids() const { return mass.size(); }
   void clear();
   // Starts the points of a new solid; returns its index.
-  size_t addSolid(float point_mass, float mu, bool is_fixed);
+  size_t addSolid(float point_mass, float mu, bool is_fixed, double whole_mass);
 };
 
 // What a coupling step did, for tests and the run record.
@@ -59,7 +68,7 @@ class GridCoupling {
   // shared node whose MPM material approaches the solid. With a single grid
   // both sides take the mass-weighted velocity instead (they stick).
   // `grid` holds MPM velocities after the grid update; it is changed in place.
-  void collide(std::vector<GridNode>& grid);
+  void collide(std::vector<GridNode>& grid, const SolidPoints& points, const TransferParams& p);
 
   // Step 8: each point's velocity change from the grid (points.dv), either
   // the opposite of the impulses the MPM side got (momentum conserving) or
@@ -70,9 +79,21 @@ class GridCoupling {
   size_t bytes() const;
 
  private:
-  // Solid data on one node: sums of w m, w m v, w n, w m mu, w m [fixed].
+  // Solid data on one node: sums of w m, w m v, w n, w m mu, w m [fixed],
+  // and which solid it holds (solid + 1; 0 none yet; -1 several).
   struct SolidNode {
     float m, p[3], n[3], mu, fixed_m;
+    int32_t solid;
+  };
+  // A node with both MPM and solid mass, during the collision.
+  struct Shared {
+    uint32_t i, g;        // slot node, grid node
+    int32_t solid;        // the one moving solid it holds, or -1
+    bool fixed;
+    float m_mpm, m_vol, mu;
+    Vec3f v_mpm, v_cmp, v_vol, n, x;  // x: world position
+    Vec3f P = Vec3f::Zero(), T = Vec3f::Zero(), dP = Vec3f::Zero();
+    float lambda = 0.0f;  // accumulated normal impulse
   };
   // A base block of active points: its points and the slots of the eight
   // grid blocks its stencils reach (-1: not in the MPM grid).
@@ -92,6 +113,8 @@ class GridCoupling {
   std::vector<PointBlock> blocks_;
   std::array<std::vector<uint32_t>, 8> colour_blocks_;
   std::vector<uint64_t> point_key_;    // per point: base block key
+  std::vector<Shared> shared_;
+  const std::vector<uint64_t>* layout_keys_ = nullptr;  // the grid's block keys
   CouplingStats stats_;
 };
 

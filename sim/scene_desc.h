@@ -20,6 +20,9 @@ enum class CouplingScheme { ThreeGrid, SingleGrid };
 // with the solid's, and what the solids read back from the grid.
 enum class ContactVelocity { AfterUpdate, BeforeUpdate };
 enum class SolidReadback { MomentumConserving, Combined };
+// The solid mass in a collision's reduced mass at a rigid body's node: the
+// body's mass shared over its nodes in contact, or the node's own (literal).
+enum class RigidNodeMass { BodyShare, Node };
 enum class MaterialModel { FixedCorotated, NeoHookean, Snow, DruckerPrager, Water };
 enum class ObjectKind { Mpm, Rigid, Elastic };
 
@@ -49,6 +52,8 @@ struct SolverDesc {
   CouplingScheme coupling = CouplingScheme::ThreeGrid;
   ContactVelocity contact_velocity = ContactVelocity::AfterUpdate;
   SolidReadback solid_readback = SolidReadback::MomentumConserving;
+  RigidNodeMass rigid_node_mass = RigidNodeMass::BodyShare;
+  int coupling_iterations = 4;  // Jacobi passes of the grid collision with rigid bodies
   int contact_iterations = 20;  // sequential-impulse passes for rigid contacts
 };
 

@@ -64,6 +64,7 @@ class Solver {
   // The last step's coupling and contact counts (zero without solids).
   const CouplingStats& couplingStats() const;
   const ContactStats& contactStats() const { return contact_stats_; }
+  size_t particlesPushedOut() const { return pushed_out_; }
   const StepRecord& record() const { return record_; }
   // Bytes held by grids and binning buffers (capacity).
   size_t bytes() const;
@@ -78,6 +79,7 @@ class Solver {
   void scatterSolids();
   void collideSolids();
   void advanceSolids(double dt);
+  void pushOutOfSolids();
   double solidSpeed() const;
   [[noreturn]] void reportNonFinite() const;
 
@@ -100,6 +102,7 @@ class Solver {
   SolidPoints points_;
   ContactSettings contact_;
   ContactStats contact_stats_;
+  size_t pushed_out_ = 0;  // particles moved out of bodies in the last step
 
   float max_speed_ = 0.0f;
   float max_stiffness_scale_ = 1.0f;
