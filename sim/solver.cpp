@@ -220,23 +220,46 @@ void Solver::pushOutOfSolids() {
   // floating slab fills with water over a second. Particles found inside a
   // body move back to its surface and lose their approach velocity.
   size_t moved = 0;
+  std::vector<Mat3d> rot;
+  std::vector<Vec3d> omega;
+  for (const RigidBody& b : world_.bodies) {
+    rot.push_back(b.rotation());
+    omega.push_back(b.omega());
+  }
   for (ParticleSet& set : world_.sets) {
 #pragma omp parallel for schedule(static) reduction(+ : moved)
     for (int64_t i = 0; i < int64_t(set.size()); ++i) {
-      for (const RigidBody& b : world_.bodies) {
+      for (size_t bi = 0; bi < world_.bodies.size(); ++bi) {
+        const RigidBody& b = world_.bodies[bi];
         const Vec3d x = set.x[i].cast<double>();
         if ((x - b.state.x).squaredNorm() > double(b.radius) * b.radius) continue;
         const int k = b.sampleAt(x);
         if (k < 0) continue;
-        const Mat3d R = b.rotation();
+        const Mat3d& R = rot[bi];
         const Vec3d n = R * b.n[k].cast<double>();
         const Vec3d xk = b.state.x + R * b.r[k].cast<double>();
         const double phi = double(b.phi[k]) + n.dot(x - xk);
         if (phi >= 0.0) continue;
-        set.x[i] = (x - phi * n).cast<float>();
         const Vec3d v = set.v[i].cast<double>();
-        const double vn = (v - b.velocityAt(x)).dot(n);
-        if (vn < 0.0) set.v[i] = (v - vn * n).cast<float>();
+        const Vec3d v_rel = v - (b.state.v + omega[bi].cross(x - b.state.x));
+        Vec3d out = x - phi * n, normal = n;
+        if (v_rel.dot(n) > 0.0) {
+          // Moving out through the nearest face: in a part thinner than a
+          // few samples it came in through the opposite one (a plate one
+          // cell thick). Send it back there, not through.
+          const double h = b.spacing;
+          for (int step = 1; step <= 4; ++step) {
+            const Vec3d back = x - (step * 0.5 * h) * n;
+            if (b.sampleAt(back) == -1) {
+              out = back;
+              normal = -n;
+              break;
+            }
+          }
+        }
+        set.x[i] = out.cast<float>();
+        const double vn = v_rel.dot(normal);
+        if (vn < 0.0) set.v[i] = (v - vn * normal).cast<float>();
         ++moved;
       }
     }
