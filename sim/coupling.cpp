@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 
 namespace triad {
 
@@ -69,7 +70,9 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
     uint32_t start, end, solid;
   };
   std::vector<Run> runs;
+  if (!fixed_built_) buildFixed(pts, p);
   for (size_t s = 0; s < pts.solids(); ++s) {
+    if (pts.fixed[s]) continue;  // scattered once, in buildFixed
     const size_t e = s + 1 < pts.begin.size() ? pts.begin[s + 1] : n;
     for (size_t q = pts.begin[s]; q < e; ++q) {
       if (runs.empty() || runs.back().solid != s || runs.back().key != point_key_[q] ||
@@ -120,7 +123,27 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
     r = e;
   }
 
+  // Fixed solids: their node sums, for the grid blocks that exist now
+  // (both key lists are sorted: one merge).
+  std::vector<std::pair<int32_t, size_t>> fixed_copy;  // slot, index into fixed_keys_
+  for (size_t gb = 0, f = 0; gb < layout.grid_keys.size() && f < fixed_keys_.size();) {
+    if (layout.grid_keys[gb] < fixed_keys_[f]) {
+      ++gb;
+    } else if (fixed_keys_[f] < layout.grid_keys[gb]) {
+      ++f;
+    } else {
+      if (block_slot_[gb] == kNoSlot) {
+        block_slot_[gb] = int32_t(slot_block_.size());
+        slot_block_.push_back(uint32_t(gb));
+      }
+      fixed_copy.emplace_back(block_slot_[gb], f);
+      ++gb;
+      ++f;
+    }
+  }
   nodes_.assign(slot_block_.size() * kBlockNodes, SolidNode{0, {0, 0, 0}, {0, 0, 0}, 0, 0, 0});
+  for (const auto& [slot, f] : fixed_copy)
+    std::copy_n(&fixed_nodes_[f * kBlockNodes], kBlockNodes, &nodes_[size_t(slot) * kBlockNodes]);
   for (auto& c : colour_blocks_) c.clear();
   for (size_t k = 0; k < blocks_.size(); ++k) {
     const Vec3i b = unpackBlock(blocks_[k].key);
@@ -160,10 +183,49 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
                 g.fixed_m += w * fixed_m;
                 const int32_t tag = int32_t(s) + 1;
                 g.solid = g.solid == 0 || g.solid == tag ? tag : -1;
+                (void)fixed_m;
               }
         }
       }
     }
+  }
+}
+
+void GridCoupling::buildFixed(const SolidPoints& pts, const TransferParams& p) {
+  // Fixed solids never move: scatter their points once into node sums per
+  // grid block (serially, in point order: deterministic), and copy the
+  // blocks the MPM grid has each step.
+  fixed_built_ = true;
+  std::map<uint64_t, std::vector<SolidNode>> blocks;
+  for (size_t s = 0; s < pts.solids(); ++s) {
+    if (!pts.fixed[s]) continue;
+    const size_t e = s + 1 < pts.begin.size() ? pts.begin[s + 1] : pts.size();
+    const float m = pts.mass[s], mu = pts.friction[s];
+    for (size_t q = pts.begin[s]; q < e; ++q) {
+      const Stencil st = stencilAt(pts.x[q], p.shifted_origin, p.inv_dx);
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b)
+          for (int c = 0; c < 3; ++c) {
+            const Vec3i node = st.base + Vec3i(a, b, c);
+            const uint64_t key =
+                packBlock(Vec3i(blockOf(node.x()), blockOf(node.y()), blockOf(node.z())));
+            std::vector<SolidNode>& blk = blocks[key];
+            if (blk.empty()) blk.assign(kBlockNodes, SolidNode{0, {0, 0, 0}, {0, 0, 0}, 0, 0, 0});
+            SolidNode& g = blk[localNode(node.x(), node.y(), node.z())];
+            const float w = st.w[0][a] * st.w[1][b] * st.w[2][c];
+            g.m += w * m;
+            for (int d = 0; d < 3; ++d) g.n[d] += w * pts.n[q][d];
+            g.mu += w * m * mu;
+            g.fixed_m += w * m;
+            g.solid = -1;  // several or none moving: never a body's node
+          }
+    }
+  }
+  fixed_keys_.clear();
+  fixed_nodes_.clear();
+  for (const auto& [key, blk] : blocks) {
+    fixed_keys_.push_back(key);
+    fixed_nodes_.insert(fixed_nodes_.end(), blk.begin(), blk.end());
   }
 }
 

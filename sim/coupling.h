@@ -76,6 +76,9 @@ class GridCoupling {
   void gather(SolidPoints& points, const TransferParams& p) const;
 
   const CouplingStats& stats() const { return stats_; }
+  // Whether fixed solids have been scattered once for good: their points
+  // are no longer needed.
+  bool fixedBuilt() const { return fixed_built_; }
   size_t bytes() const;
 
  private:
@@ -113,7 +116,12 @@ class GridCoupling {
   std::vector<PointBlock> blocks_;
   std::array<std::vector<uint32_t>, 8> colour_blocks_;
   std::vector<uint64_t> point_key_;    // per point: base block key
+  void buildFixed(const SolidPoints& points, const TransferParams& p);
+
   std::vector<Shared> shared_;
+  bool fixed_built_ = false;
+  std::vector<uint64_t> fixed_keys_;     // grid blocks fixed solids reach, sorted
+  std::vector<SolidNode> fixed_nodes_;   // their node sums, 64 per block
   const std::vector<uint64_t>* layout_keys_ = nullptr;  // the grid's block keys
   CouplingStats stats_;
 };

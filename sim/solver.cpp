@@ -178,6 +178,8 @@ void Solver::predictSolids(double dt) {
   for (RigidBody& b : world_.bodies) {
     if (!b.fixed) b.state.v += dt * g;
     const size_t id = points_.addSolid(b.sample_mass, b.friction, b.fixed, b.fixed ? 0.0 : b.mass);
+    // Fixed bodies are scattered once and for all (GridCoupling::buildFixed).
+    if (b.fixed && coupling_->fixedBuilt()) continue;
     if (!b.fixed) {
       const Mat3d R = b.rotation();
       points_.centre[id] = b.state.x.cast<float>();
