@@ -3,9 +3,10 @@
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
-#include <map>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <regex>
 #include <sstream>
 
@@ -171,7 +172,8 @@ void writeFrameCaches(const SceneDesc& scene, const std::string& out_dir, const 
 void writeFrameBodies(const std::string& out_dir, const World& world, int frame,
                       RigidStateLog& states) {
   if (world.bodies.empty()) return;
-  for (const RigidBody& b : world.bodies) writeBodyPly(bodyMeshPath(out_dir, b.name, frame), b, world.time);
+  for (const RigidBody& b : world.bodies)
+    writeBodyPly(bodyMeshPath(out_dir, b.name, frame), b, world.time);
   // The table last: its rows of a frame say that frame's meshes are written.
   states.record(frame, world.time, world.bodies);
   states.write(rigidStatesPath(out_dir));

@@ -148,7 +148,8 @@ int runScene(const RunOptions& options) {
   auto record = [&](bool finished, const std::string& error) {
     const PhaseTimes& t = solver.phaseTimes();
     rec.phase_seconds = {{"bin", t.bin},   {"stress", t.stress}, {"p2g", t.p2g},
-                         {"grid", t.grid}, {"g2p", t.g2p},       {"solve", t.total()},
+                         {"grid", t.grid}, {"g2p", t.g2p},       {"solids", t.solids},
+                         {"solve", t.total()},
                          {"output", output_seconds}};
     const StepRecord steps = runSteps();
     rec.simulated_time = world.time;

@@ -122,7 +122,8 @@ void readMeshPly(const std::string& path, PreviewMesh& mesh) {
   if (ox < 0 || oy < 0 || oz < 0) throw bad("the vertex element needs float properties x, y and z");
 
   // The data, whole: body meshes are small.
-  const std::vector<char> data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::vector<char> data((std::istreambuf_iterator<char>(in)),
+                               std::istreambuf_iterator<char>());
   const char* p = data.data();
   const char* const end = data.data() + data.size();
   auto need = [&](size_t n, const char* what) {

@@ -218,53 +218,79 @@ void Solver::collideSolids() {
 void Solver::pushOutOfSolids() {
   PhaseTimer timer(times_.solids);
   // The grid collision stops material approaching a body at shared nodes,
-  // but interpolation lets particles at the surface creep in, slowly: a
-  // floating slab fills with water over a second. Particles found inside a
-  // body move back to its surface and lose their approach velocity.
-  size_t moved = 0;
+  // but interpolation lets particles at the surface creep in, slowly.
+  // Particles found inside a body move back to its surface and lose their
+  // approach velocity; the body takes that momentum, so nothing is lost.
+  const size_t nb = world_.bodies.size();
   std::vector<Mat3d> rot;
   std::vector<Vec3d> omega;
   for (const RigidBody& b : world_.bodies) {
     rot.push_back(b.rotation());
     omega.push_back(b.omega());
   }
+  // Impulses summed per fixed-size chunk of particles, then over chunks in
+  // order: the same sums for any thread count.
+  constexpr int64_t kChunk = 4096;
+  struct Push {
+    Vec3d p = Vec3d::Zero(), l = Vec3d::Zero();
+  };
+  size_t moved = 0;
   for (ParticleSet& set : world_.sets) {
+    const int64_t chunks = (int64_t(set.size()) + kChunk - 1) / kChunk;
+    std::vector<Push> partial(size_t(chunks) * nb);
 #pragma omp parallel for schedule(static) reduction(+ : moved)
-    for (int64_t i = 0; i < int64_t(set.size()); ++i) {
-      for (size_t bi = 0; bi < world_.bodies.size(); ++bi) {
-        const RigidBody& b = world_.bodies[bi];
-        const Vec3d x = set.x[i].cast<double>();
-        if ((x - b.state.x).squaredNorm() > double(b.radius) * b.radius) continue;
-        const int k = b.sampleAt(x);
-        if (k < 0) continue;
-        const Mat3d& R = rot[bi];
-        const Vec3d n = R * b.n[k].cast<double>();
-        const Vec3d xk = b.state.x + R * b.r[k].cast<double>();
-        const double phi = double(b.phi[k]) + n.dot(x - xk);
-        if (phi >= 0.0) continue;
-        const Vec3d v = set.v[i].cast<double>();
-        const Vec3d v_rel = v - (b.state.v + omega[bi].cross(x - b.state.x));
-        Vec3d out = x - phi * n, normal = n;
-        if (v_rel.dot(n) > 0.0) {
-          // Moving out through the nearest face: in a part thinner than a
-          // few samples it came in through the opposite one (a plate one
-          // cell thick). Send it back there, not through.
-          const double h = b.spacing;
-          for (int step = 1; step <= 4; ++step) {
-            const Vec3d back = x - (step * 0.5 * h) * n;
-            if (b.sampleAt(back) == -1) {
-              out = back;
-              normal = -n;
-              break;
+    for (int64_t c = 0; c < chunks; ++c) {
+      const int64_t end = std::min<int64_t>(int64_t(set.size()), (c + 1) * kChunk);
+      for (int64_t i = c * kChunk; i < end; ++i) {
+        for (size_t bi = 0; bi < nb; ++bi) {
+          const RigidBody& b = world_.bodies[bi];
+          const Vec3d x = set.x[i].cast<double>();
+          if ((x - b.state.x).squaredNorm() > double(b.radius) * b.radius) continue;
+          const int k = b.sampleAt(x);
+          if (k < 0) continue;
+          const Mat3d& R = rot[bi];
+          const Vec3d n = R * b.n[k].cast<double>();
+          const Vec3d xk = b.state.x + R * b.r[k].cast<double>();
+          const double phi = double(b.phi[k]) + n.dot(x - xk);
+          if (phi >= 0.0) continue;
+          const Vec3d v = set.v[i].cast<double>();
+          const Vec3d v_rel = v - (b.state.v + omega[bi].cross(x - b.state.x));
+          Vec3d out = x - phi * n, normal = n;
+          if (v_rel.dot(n) > 0.0) {
+            // Moving out through the nearest face: in a part thinner than a
+            // few samples it came in through the opposite one (a plate one
+            // cell thick). Send it back there, not through.
+            const double h = b.spacing;
+            for (int step = 1; step <= 4; ++step) {
+              const Vec3d back = x - (step * 0.5 * h) * n;
+              if (b.sampleAt(back) == -1) {
+                out = back;
+                normal = -n;
+                break;
+              }
             }
           }
+          set.x[i] = out.cast<float>();
+          const double vn = v_rel.dot(normal);
+          if (vn < 0.0) {
+            set.v[i] = (v - vn * normal).cast<float>();
+            const Vec3d j = double(set.mass) * vn * normal;  // what the body takes
+            Push& acc = partial[size_t(c) * nb + bi];
+            acc.p += j;
+            acc.l += (x - b.state.x).cross(j);
+          }
+          ++moved;
         }
-        set.x[i] = out.cast<float>();
-        const double vn = v_rel.dot(normal);
-        if (vn < 0.0) set.v[i] = (v - vn * normal).cast<float>();
-        ++moved;
       }
     }
+    for (int64_t c = 0; c < chunks; ++c)
+      for (size_t bi = 0; bi < nb; ++bi) {
+        RigidBody& b = world_.bodies[bi];
+        if (b.fixed) continue;
+        const Push& acc = partial[size_t(c) * nb + bi];
+        b.state.v += acc.p / b.mass;
+        b.state.L += acc.l;
+      }
   }
   pushed_out_ = moved;
 }

@@ -283,7 +283,8 @@ TEST(BodiesCache, PreviewsDrawTheBodiesAndRenderReadsThemBack) {
   json j = bodiesScene(1);
   j["output"]["png"] = true;
   j["render"] = {{"resolution", {160, 90}},
-                 {"camera", {{"eye", {2.0, 1.2, 2.0}}, {"target", {0.5, 0.3, 0.5}}, {"fov_deg", 40}}}};
+                 {"camera",
+                  {{"eye", {2.0, 1.2, 2.0}}, {"target", {0.5, 0.3, 0.5}}, {"fov_deg", 40}}}};
   const fs::path out = dir / "out";
   ASSERT_EQ(run(dir, test::writeScene(dir, j), out).status, 0);
   const fs::path png = out / "preview" / "preview.0001.png";

@@ -154,6 +154,8 @@ TEST(RigidStateLog, RowsHoldStateWithFullPrecisionAndNoNegativeZero) {
   for (int k = 7; k < 16; ++k) EXPECT_NEAR(std::stod(f[k]), 0.0, 1e-12) << k;
 
   // Moving: 9 significant digits of every value.
+  const TriSurface rest = worldSurface(w.bodies[0]);
+  const Vec3d x0 = w.bodies[0].state.x;
   perturb(w, 0, 1.0);
   const RigidBody& b = w.bodies[0];
   const std::string moving = rigidStateRow(7, 7 / 24.0, b);
@@ -170,6 +172,14 @@ TEST(RigidStateLog, RowsHoldStateWithFullPrecisionAndNoNegativeZero) {
   for (int k = 0; k < 13; ++k)
     EXPECT_NEAR(std::stod(f[3 + k]), expect[k], 1e-8 * std::max(1.0, std::abs(expect[k]))) << k;
   EXPECT_GT(omega.norm(), 0.0);
+  // What the README promises: the frame-0 mesh moved by (p, q) is the mesh now.
+  const TriSurface now = worldSurface(b);
+  for (size_t i = 0; i < rest.vertices.size(); ++i) {
+    const Vec3d r0 = rest.vertices[i].cast<double>();
+    const Vec3d expect_now = b.state.x + q * (r0 - x0);
+    EXPECT_LT((now.vertices[i].cast<double>() - expect_now).norm(), 1e-6) << i;
+  }
+  EXPECT_GT(std::abs(q.w() - 1.0), 1e-3) << "the test must rotate the body";
 }
 
 TEST(RigidStateLog, FramesWrittenAgainReplaceTheirRows) {

@@ -467,6 +467,16 @@ TEST_F(SceneLoaderTest, NamesMustBeSafeForFiles) {
   EXPECT_TRUE(contains(error(with(exampleScene(), "/name", "")), {"name", "non-empty"}));
 }
 
+TEST_F(SceneLoaderTest, ObjectNamesMustBeSafeForFiles) {
+  // A rigid object's name names its files: bodies/NAME.FFFF.ply.
+  for (const char* bad : {"", ".", "..", "my ball", "a/b", "a\\b", "b\xC3\xA4ll", "ball*", "x:y"})
+    EXPECT_TRUE(contains(error(with(exampleScene(), "/objects/2/name", bad)),
+                         {"scene.json: objects[2].name"}))
+        << "name \"" << bad << "\"";
+  EXPECT_EQ(load(with(exampleScene(), "/objects/2/name", "Ball-2.v_3")).objects[2].name,
+            "Ball-2.v_3");
+}
+
 // Types and ranges
 
 struct BadValue {
