@@ -57,6 +57,7 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
   stats_ = {};
   const size_t n = pts.size();
   point_key_.resize(n);
+  if (point_key_.capacity() > 2 * n + 4096) point_key_.shrink_to_fit();  // fixed points gone
 #pragma omp parallel for schedule(static)
   for (int64_t q = 0; q < int64_t(n); ++q) {
     const Vec3i b = baseNode(pts.x[q], p.shifted_origin, p.inv_dx);
@@ -302,13 +303,11 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
       if (!c.fixed) delta_[c.i] = c.m_mpm / (c.m_mpm + c.m_vol) * (pre_[c.i] - c.v_vol);
   }
 
-  // A rigid body's node moves with the whole body, so its node mass
-  // understates the inertia the material meets: with node masses alone, a
-  // floating slab lets water seep in and sinks (measured, bench/RESULTS.md).
-  // Each body's mass is shared over its approaching nodes instead
-  // (share = M / sum of their node masses, at least 1), which stops the
-  // material against a heavy body and never gives a light one more than
-  // its own mass times the approach speed.
+  // Optionally (rigid_node_mass body_share) a rigid body's mass is shared
+  // over its approaching nodes (share = M / sum of their node masses, at
+  // least 1) instead of each node's own mass standing for the solid: a node
+  // of a rigid body moves with the whole body. Measured against the
+  // literal node mass in bench/RESULTS.md ("Coupling").
   const size_t nsolids = pts.solids();
   std::vector<float> share(nsolids, 1.0f);
   if (solver_.rigid_node_mass == RigidNodeMass::BodyShare) {
@@ -331,8 +330,12 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
   const bool bodies_move = std::any_of(shared_.begin(), shared_.end(),
                                        [](const Shared& c) { return c.solid >= 0; });
   const int passes = bodies_move ? solver_.coupling_iterations : 1;
-  for (int pass = 0; pass < passes; ++pass) {
-#pragma omp parallel for schedule(static)
+  int pass = 0;
+  for (; pass < passes; ++pass) {
+    // Converged when no node's impulse changes by more than a thousandth of
+    // the largest impulse (max is order-free: the same for any thread count).
+    float change = 0.0f, largest = 0.0f;
+#pragma omp parallel for schedule(static) reduction(max : change, largest) if (shared_.size() > 8192)
     for (int64_t k = 0; k < int64_t(shared_.size()); ++k) {
       Shared& c = shared_[k];
       c.dP.setZero();
@@ -354,8 +357,10 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
       c.lambda = lambda;
       c.T = T;
       c.P += c.dP;
+      change = std::max(change, c.dP.norm());
+      largest = std::max(largest, c.P.norm());
     }
-    if (!bodies_move) break;
+    if (!bodies_move || change <= 1e-3f * largest) break;
     // Each body takes the opposite of its nodes' new impulses.
     std::vector<Vec3f> dp(nsolids, Vec3f::Zero()), dl(nsolids, Vec3f::Zero());
     for (const Shared& c : shared_) {
@@ -369,6 +374,7 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
     }
   }
 
+  stats_.passes = std::min(pass + 1, passes);
   size_t collisions = 0;
   for (const Shared& c : shared_) {
     if (c.lambda <= 0.0f) continue;

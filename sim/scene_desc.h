@@ -52,8 +52,8 @@ struct SolverDesc {
   CouplingScheme coupling = CouplingScheme::ThreeGrid;
   ContactVelocity contact_velocity = ContactVelocity::AfterUpdate;
   SolidReadback solid_readback = SolidReadback::MomentumConserving;
-  RigidNodeMass rigid_node_mass = RigidNodeMass::BodyShare;
-  int coupling_iterations = 4;  // Jacobi passes of the grid collision with rigid bodies
+  RigidNodeMass rigid_node_mass = RigidNodeMass::Node;
+  int coupling_iterations = 30;  // most Jacobi passes of the grid collision with rigid bodies
   int contact_iterations = 20;  // sequential-impulse passes for rigid contacts
 };
 

@@ -174,6 +174,12 @@ void Solver::gridToParticles(float dt) {
 void Solver::predictSolids(double dt) {
   PhaseTimer timer(times_.solids);
   points_.clear();
+  // Once fixed bodies are scattered for good, their points are gone: give
+  // back the memory they took in the first step.
+  if (coupling_->fixedBuilt() && !shrunk_) {
+    shrunk_ = true;
+    for (auto* a : {&points_.x, &points_.v, &points_.n, &points_.dv}) a->shrink_to_fit();
+  }
   const Vec3d g(world_.scene.gravity[0], world_.scene.gravity[1], world_.scene.gravity[2]);
   for (RigidBody& b : world_.bodies) {
     if (!b.fixed) b.state.v += dt * g;

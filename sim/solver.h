@@ -102,7 +102,8 @@ class Solver {
   SolidPoints points_;
   ContactSettings contact_;
   ContactStats contact_stats_;
-  size_t pushed_out_ = 0;  // particles moved out of bodies in the last step
+  size_t pushed_out_ = 0;
+  bool shrunk_ = false;  // particles moved out of bodies in the last step
 
   float max_speed_ = 0.0f;
   float max_stiffness_scale_ = 1.0f;
