@@ -255,16 +255,30 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
   const bool combined = solver_.solid_readback == SolidReadback::Combined;
   const Vec3f node0 = p.shifted_origin - Vec3f::Constant(0.5f * p.dx);
 
-  // The shared nodes, in slot order.
-  shared_.clear();
-  for (size_t s = 0; s < slot_block_.size(); ++s) {
+  // The shared nodes, in slot order: counted per slot, then filled.
+  const int64_t slots = int64_t(slot_block_.size());
+  std::vector<uint32_t> first(size_t(slots) + 1, 0);
+#pragma omp parallel for schedule(static)
+  for (int64_t s = 0; s < slots; ++s) {
+    uint32_t count = 0;
+    for (int k = 0; k < kBlockNodes; ++k)
+      count += nodes_[size_t(s) * kBlockNodes + k].m > 0.0f &&
+               grid[size_t(slot_block_[s]) * kBlockNodes + k].m > 0.0f;
+    first[size_t(s) + 1] = count;
+  }
+  for (int64_t s = 0; s < slots; ++s) first[size_t(s) + 1] += first[size_t(s)];
+  shared_.resize(first.back());
+#pragma omp parallel for schedule(static)
+  for (int64_t s = 0; s < slots; ++s) {
     const size_t gb = slot_block_[s];
+    uint32_t out = first[size_t(s)];
     for (int k = 0; k < kBlockNodes; ++k) {
-      const size_t i = s * kBlockNodes + k;
+      const size_t i = size_t(s) * kBlockNodes + k;
       const SolidNode& sn = nodes_[i];
       const GridNode& g = grid[gb * kBlockNodes + k];
       if (sn.m <= 0.0f || g.m <= 0.0f) continue;
-      Shared c;
+      Shared& c = shared_[out++];
+      c = Shared{};
       c.i = uint32_t(i);
       c.g = uint32_t(gb * kBlockNodes + k);
       c.fixed = sn.fixed_m > 0.0f;  // any immovable solid: infinite mass
@@ -281,7 +295,6 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
                          Vec3i(k >> (2 * kBlockBits), (k >> kBlockBits) & (kBlockSize - 1),
                                k & (kBlockSize - 1));
       c.x = node0 + p.dx * node.cast<float>();
-      shared_.push_back(c);
     }
   }
   stats_.shared_nodes = shared_.size();
@@ -327,44 +340,42 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
   // feed back, so that material resting on a body does not sink into it by
   // g dt^2 every step.
   std::vector<Vec3f> dV(nsolids, Vec3f::Zero()), dW(nsolids, Vec3f::Zero());
-  const bool bodies_move = std::any_of(shared_.begin(), shared_.end(),
-                                       [](const Shared& c) { return c.solid >= 0; });
-  const int passes = bodies_move ? solver_.coupling_iterations : 1;
-  int pass = 0;
-  for (; pass < passes; ++pass) {
-    // Converged when no node's impulse changes by more than a thousandth of
-    // the largest impulse (max is order-free: the same for any thread count).
-    float change = 0.0f, largest = 0.0f;
-#pragma omp parallel for schedule(static) reduction(max : change, largest) if (shared_.size() > 8192)
-    for (int64_t k = 0; k < int64_t(shared_.size()); ++k) {
-      Shared& c = shared_[k];
-      c.dP.setZero();
-      if (c.n.isZero()) continue;  // normals cancel (a sliver): no direction to push
-      Vec3f v_solid = c.v_vol;
-      if (c.solid >= 0) v_solid += dV[c.solid] + dW[c.solid].cross(c.x - pts.centre[c.solid]);
-      const Vec3f u = c.v_cmp + c.P / c.m_mpm - v_solid;
-      const float un = u.dot(c.n);
-      if (un >= 0.0f && c.lambda <= 0.0f) continue;  // separating: material leaves freely
-      const float m_solid = c.m_vol * (c.solid >= 0 ? share[c.solid] : 1.0f);
-      const float reduced = c.fixed ? c.m_mpm : c.m_mpm * m_solid / (c.m_mpm + m_solid);
-      const float lambda = std::max(0.0f, c.lambda - reduced * un);
-      // Coulomb friction: can stop sliding, never reverse it.
-      const Vec3f ut = u - un * c.n;
-      Vec3f T = c.T - reduced * ut;
-      const float limit = c.mu * lambda, len = T.norm();
-      if (len > limit) T *= limit / len;
-      c.dP = (lambda - c.lambda) * c.n + (T - c.T);
-      c.lambda = lambda;
-      c.T = T;
-      c.P += c.dP;
-      change = std::max(change, c.dP.norm());
-      largest = std::max(largest, c.P.norm());
-    }
-    if (!bodies_move || change <= 1e-3f * largest) break;
+  // One relaxation of node c against the solid's current velocity.
+  auto relax = [&](Shared& c) {
+    c.dP.setZero();
+    if (c.n.isZero()) return;  // normals cancel (a sliver): no direction to push
+    Vec3f v_solid = c.v_vol;
+    if (c.solid >= 0) v_solid += dV[c.solid] + dW[c.solid].cross(c.x - pts.centre[c.solid]);
+    const Vec3f u = c.v_cmp + c.P / c.m_mpm - v_solid;
+    const float un = u.dot(c.n);
+    if (un >= 0.0f && c.lambda <= 0.0f) return;  // separating: material leaves freely
+    const float m_solid = c.m_vol * (c.solid >= 0 ? share[c.solid] : 1.0f);
+    const float reduced = c.fixed ? c.m_mpm : c.m_mpm * m_solid / (c.m_mpm + m_solid);
+    const float lambda = std::max(0.0f, c.lambda - reduced * un);
+    // Coulomb friction: can stop sliding, never reverse it.
+    const Vec3f ut = u - un * c.n;
+    Vec3f T = c.T - reduced * ut;
+    const float limit = c.mu * lambda, len = T.norm();
+    if (len > limit) T *= limit / len;
+    c.dP = (lambda - c.lambda) * c.n + (T - c.T);
+    c.lambda = lambda;
+    c.T = T;
+    c.P += c.dP;
+  };
+  // First pass: every shared node. Nodes of fixed solids (or of several)
+  // see a solid velocity that no pass changes: they are done after it.
+#pragma omp parallel for schedule(static) if (shared_.size() > 8192)
+  for (int64_t k = 0; k < int64_t(shared_.size()); ++k) relax(shared_[k]);
+  moving_.clear();
+  for (uint32_t k = 0; k < shared_.size(); ++k)
+    if (shared_[k].solid >= 0) moving_.push_back(k);
+  const int passes = moving_.empty() ? 1 : solver_.coupling_iterations;
+  int pass = 1;
+  for (;; ++pass) {
     // Each body takes the opposite of its nodes' new impulses.
     std::vector<Vec3f> dp(nsolids, Vec3f::Zero()), dl(nsolids, Vec3f::Zero());
-    for (const Shared& c : shared_) {
-      if (c.solid < 0) continue;
+    for (uint32_t k : moving_) {
+      const Shared& c = shared_[k];
       dp[c.solid] -= c.dP;
       dl[c.solid] -= (c.x - pts.centre[c.solid]).cross(c.dP);
     }
@@ -372,9 +383,24 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
       dV[b] += pts.inv_mass[b] * dp[b];
       dW[b] += pts.inv_inertia[b] * dl[b];
     }
+    if (pass >= passes) break;
+    // Converged when no node's impulse changes by more than a thousandth of
+    // the largest (max is order-free: the same for any thread count).
+    float change = 0.0f, largest = 0.0f;
+#pragma omp parallel for schedule(static) reduction(max : change, largest) if (moving_.size() > 8192)
+    for (int64_t k = 0; k < int64_t(moving_.size()); ++k) {
+      Shared& c = shared_[moving_[k]];
+      relax(c);
+      change = std::max(change, c.dP.norm());
+      largest = std::max(largest, c.P.norm());
+    }
+    if (change <= 1e-3f * largest) {
+      ++pass;  // count the pass just done
+      break;
+    }
   }
 
-  stats_.passes = std::min(pass + 1, passes);
+  stats_.passes = std::min(pass, passes);
   size_t collisions = 0;
   for (const Shared& c : shared_) {
     if (c.lambda <= 0.0f) continue;

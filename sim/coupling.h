@@ -120,6 +120,7 @@ class GridCoupling {
   void buildFixed(const SolidPoints& points, const TransferParams& p);
 
   std::vector<Shared> shared_;
+  std::vector<uint32_t> moving_;  // shared nodes of one moving rigid body
   bool fixed_built_ = false;
   std::vector<uint64_t> fixed_keys_;     // grid blocks fixed solids reach, sorted
   std::vector<SolidNode> fixed_nodes_;   // their node sums, 64 per block
