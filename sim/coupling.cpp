@@ -58,7 +58,7 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
   const size_t n = pts.size();
   point_key_.resize(n);
   if (point_key_.capacity() > 2 * n + 4096) point_key_.shrink_to_fit();  // fixed points gone
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n > 8192)
   for (int64_t q = 0; q < int64_t(n); ++q) {
     const Vec3i b = baseNode(pts.x[q], p.shifted_origin, p.inv_dx);
     point_key_[q] = packBlock(Vec3i(blockOf(b.x()), blockOf(b.y()), blockOf(b.z())));
@@ -154,7 +154,7 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
   // Scatter colour by colour: base blocks of one colour reach disjoint nodes,
   // so each node's sum has one order for any thread count.
   for (const std::vector<uint32_t>& colour : colour_blocks_) {
-#pragma omp parallel for schedule(dynamic, 1)
+#pragma omp parallel for schedule(dynamic, 1) if (colour.size() > 8)
     for (int64_t k = 0; k < int64_t(colour.size()); ++k) {
       const PointBlock& blk = blocks_[colour[k]];
       for (uint32_t o = blk.first; o < blk.last; o += 3) {
@@ -239,7 +239,7 @@ void GridCoupling::keepPreUpdate(const std::vector<GridNode>& grid) {
     return;
   }
   pre_.assign(nodes_.size(), Vec3f::Zero());
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (slot_block_.size() > 64)
   for (int64_t s = 0; s < int64_t(slot_block_.size()); ++s)
     for (int k = 0; k < kBlockNodes; ++k) {
       const GridNode& g = grid[size_t(slot_block_[s]) * kBlockNodes + k];
@@ -258,7 +258,7 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
   // The shared nodes, in slot order: counted per slot, then filled.
   const int64_t slots = int64_t(slot_block_.size());
   std::vector<uint32_t> first(size_t(slots) + 1, 0);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (slots > 64)
   for (int64_t s = 0; s < slots; ++s) {
     uint32_t count = 0;
     for (int k = 0; k < kBlockNodes; ++k)
@@ -268,7 +268,7 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
   }
   for (int64_t s = 0; s < slots; ++s) first[size_t(s) + 1] += first[size_t(s)];
   shared_.resize(first.back());
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (slots > 64)
   for (int64_t s = 0; s < slots; ++s) {
     const size_t gb = slot_block_[s];
     uint32_t out = first[size_t(s)];
@@ -416,7 +416,7 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
 
 void GridCoupling::gather(SolidPoints& pts, const TransferParams& p) const {
   pts.dv.assign(pts.size(), Vec3f::Zero());
-#pragma omp parallel for schedule(dynamic, 4)
+#pragma omp parallel for schedule(dynamic, 4) if (blocks_.size() > 32)
   for (int64_t k = 0; k < int64_t(blocks_.size()); ++k) {
     const PointBlock& blk = blocks_[k];
     for (uint32_t o = blk.first; o < blk.last; o += 3) {

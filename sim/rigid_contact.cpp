@@ -10,7 +10,7 @@ namespace {
 // What the impulse loop needs of a body, with its world inverse inertia
 // formed once: orientation does not change while velocities are solved.
 struct SolverBody {
-  Vec3d x, v, w;
+  Vec3d x = Vec3d::Zero(), v = Vec3d::Zero(), w = Vec3d::Zero();
   double inv_m = 0.0;
   Mat3d inv_i = Mat3d::Zero();
 };
@@ -65,10 +65,13 @@ void pairContacts(const std::vector<RigidBody>& bodies, int ia, int ib, double d
   const RigidBody& b = bodies[ib];
   const Mat3d Ra = a.rotation(), Rb = b.rotation();
   const double mu = std::sqrt(double(a.friction) * double(b.friction));
+  // b's bounding sphere in a's frame: most of a big body's samples are
+  // rejected without a rotation.
+  const Vec3f cb = (Ra.transpose() * (b.state.x - a.state.x)).cast<float>();
+  const float rb2 = b.radius * b.radius;
   for (size_t q = 0; q < a.r.size(); ++q) {
-    if (!onSurface(a, q)) continue;
+    if ((a.r[q] - cb).squaredNorm() > rb2 || !onSurface(a, q)) continue;
     const Vec3d p = a.state.x + Ra * a.r[q].cast<double>();
-    if ((p - b.state.x).norm() > b.radius) continue;
     const int k = b.sampleAt(p);
     if (k < 0) continue;  // outside b, or deep inside (no nearby surface to push towards)
     // b's distance field near its sample k, to first order.

@@ -200,7 +200,7 @@ void Solver::predictSolids(double dt) {
     const Mat3f R = b.rotation().cast<float>();
     const Vec3f c = b.state.x.cast<float>(), v = b.state.v.cast<float>();
     const Vec3f w = b.omega().cast<float>();
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n > 8192)
     for (int64_t q = 0; q < int64_t(n); ++q) {
       const Vec3f r = R * b.r[q];
       points_.x[first + q] = c + r;
@@ -244,7 +244,7 @@ void Solver::pushOutOfSolids() {
   for (ParticleSet& set : world_.sets) {
     const int64_t chunks = (int64_t(set.size()) + kChunk - 1) / kChunk;
     std::vector<Push> partial(size_t(chunks) * nb);
-#pragma omp parallel for schedule(static) reduction(+ : moved)
+#pragma omp parallel for schedule(static) reduction(+ : moved) if (chunks > 1)
     for (int64_t c = 0; c < chunks; ++c) {
       const int64_t end = std::min<int64_t>(int64_t(set.size()), (c + 1) * kChunk);
       for (int64_t i = c * kChunk; i < end; ++i) {

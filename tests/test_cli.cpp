@@ -71,6 +71,37 @@ TEST(Cli, SameBytesForOneAndTwoThreads) {
             slurp(dir / "t1/particles/particles.0003.ply"));
 }
 
+// The same with rigid bodies: a box thrown into the sand and against a
+// wall, a ball falling on it, and a fixed sphere in the way.
+TEST(Cli, SameBytesForOneAndTwoThreadsWithRigidBodies) {
+  const fs::path dir = test::tempDir("cli_threads_rigid");
+  json j = mixedScene();
+  auto rigid = [](const char* name, json shape, double density, std::array<double, 3> v) {
+    return json{{"name", name}, {"kind", "rigid"}, {"density", density}, {"friction", 0.4},
+                {"shape", shape}, {"velocity", v}};
+  };
+  j["objects"].push_back(rigid("crate", test::box({0.25, 0.1, 0.2}, {0.33, 0.16, 0.28}), 600,
+                               {2, -1, 0}));
+  j["objects"].push_back(rigid("ball", json{{"sphere", {{"center", {0.3, 0.3, 0.24}}, {"radius", 0.04}}}},
+                               3000, {0, -2, 0}));
+  json post = rigid("post", json{{"sphere", {{"center", {0.1, 0.1, 0.3}}, {"radius", 0.05}}}}, 1000,
+                    {0, 0, 0});
+  post["fixed"] = true;
+  j["objects"].push_back(post);
+  const std::string scene = test::writeScene(dir, j);
+  const Result one = triad(dir, "run " + scene + " --threads 1 --quiet --out " + (dir / "t1").string());
+  ASSERT_EQ(one.status, 0) << one.err;
+  const Result two = triad(dir, "run " + scene + " --threads 2 --quiet --out " + (dir / "t2").string());
+  ASSERT_EQ(two.status, 0) << two.err;
+  for (const char* name : {"particles/particles.0003.ply", "bodies/rigid_states.csv",
+                           "bodies/crate.0003.ply", "bodies/ball.0003.ply"}) {
+    const std::string a = slurp(dir / "t1" / name), b = slurp(dir / "t2" / name);
+    ASSERT_GT(a.size(), 100u) << name;
+    EXPECT_TRUE(a == b) << name << " differs between 1 and 2 threads";
+  }
+  EXPECT_NE(slurp(dir / "t1/bodies/crate.0000.ply"), slurp(dir / "t1/bodies/crate.0003.ply"));
+}
+
 TEST(Cli, WritesCacheAndRunRecord) {
   const fs::path dir = test::tempDir("cli_record");
   json j = mixedScene();
