@@ -8,6 +8,7 @@
 #include <fstream>
 #include <functional>
 #include <iterator>
+#include <cctype>
 #include <map>
 #include <optional>
 #include <set>
@@ -544,7 +545,8 @@ SceneDesc parseScene(const nlohmann::json& j, const std::string& source_path) {
     scene.materials.push_back(parseMaterial(name, dict));
   }
 
-  // Read the objects, whose names must be unique: they name output files
+  // Read the objects, whose names must be unique: they name output files,
+  // also on file systems that ignore case.
   std::map<std::string, std::size_t> seen;
   const std::vector<ParamDict> objects = root.requireDictArray("objects");
   if (objects.size() > kMaxObjects) {
@@ -553,11 +555,13 @@ SceneDesc parseScene(const nlohmann::json& j, const std::string& source_path) {
   }
   for (std::size_t i = 0; i < objects.size(); ++i) {
     ObjectDesc o = parseObject(objects[i], scene.materials, scene.domain, scene_dir);
-    auto [it, inserted] = seen.emplace(o.name, i);
+    std::string folded = o.name;
+    for (char& ch : folded) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+    auto [it, inserted] = seen.emplace(folded, i);
     if (!inserted) {
-      objects[i].fail("name", "expected a name unique among objects, got " + inQuotes(o.name) +
-                                  ", already the name of objects[" + std::to_string(it->second) +
-                                  "]");
+      objects[i].fail("name", "expected a name unique among objects (ignoring case), got " +
+                                  inQuotes(o.name) + ", already the name of objects[" +
+                                  std::to_string(it->second) + "]");
     }
     scene.objects.push_back(std::move(o));
   }

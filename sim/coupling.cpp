@@ -278,7 +278,8 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
       const GridNode& g = grid[gb * kBlockNodes + k];
       if (sn.m <= 0.0f || g.m <= 0.0f) continue;
       Shared& c = shared_[out++];
-      c = Shared{};
+      c.P = c.T = c.dP = Vec3f::Zero();
+      c.lambda = 0.0f;
       c.i = uint32_t(i);
       c.g = uint32_t(gb * kBlockNodes + k);
       c.fixed = sn.fixed_m > 0.0f;  // any immovable solid: infinite mass

@@ -475,6 +475,13 @@ TEST_F(SceneLoaderTest, ObjectNamesMustBeSafeForFiles) {
         << "name \"" << bad << "\"";
   EXPECT_EQ(load(with(exampleScene(), "/objects/2/name", "Ball-2.v_3")).objects[2].name,
             "Ball-2.v_3");
+  // Names that differ only in case would share files where case is ignored.
+  json j = exampleScene();
+  const std::string first = j["objects"][0]["name"];
+  std::string upper = first;
+  for (char& ch : upper) ch = static_cast<char>(std::toupper(static_cast<unsigned char>(ch)));
+  EXPECT_TRUE(contains(error(with(j, "/objects/2/name", upper)),
+                       {"scene.json: objects[2].name", "unique among objects (ignoring case)"}));
 }
 
 // Types and ranges
