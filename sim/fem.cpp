@@ -1,0 +1,123 @@
+#include "sim/fem.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "sim/errors.h"
+
+namespace triad {
+
+namespace {
+
+Mat3d edges(const std::vector<Vec3d>& p, const std::array<int, 4>& n) {
+  Mat3d D;
+  for (int k = 0; k < 3; ++k) D.col(k) = p[n[k + 1]] - p[n[0]];
+  return D;
+}
+
+}  // namespace
+
+ElasticModel makeElasticModel(const MaterialDesc& d) {
+  switch (d.model) {
+    case MaterialModel::FixedCorotated:
+      return FixedCorotated<double>::fromYoungPoisson(d.youngs_modulus, d.poisson_ratio);
+    case MaterialModel::NeoHookean:
+      return NeoHookean<double>::fromYoungPoisson(d.youngs_modulus, d.poisson_ratio);
+    default:
+      throw InputError("", "elastic solids take a fixed_corotated or neo_hookean material");
+  }
+}
+
+FemBody makeFemBody(TetMesh mesh, const MaterialDesc& material) {
+  FemBody b;
+  b.model = makeElasticModel(material);
+  b.density = material.density;
+  const Lame<double> l = lameFromYoungPoisson(material.youngs_modulus, material.poisson_ratio);
+  b.wave_speed = std::sqrt((l.lambda + 2 * l.mu) / material.density);
+  b.x = mesh.nodes;
+  b.v.assign(mesh.nodes.size(), Vec3d::Zero());
+  b.mass.assign(mesh.nodes.size(), 0.0);
+  b.pinned.assign(mesh.nodes.size(), 0);
+  for (size_t t = 0; t < mesh.tets.size(); ++t) {
+    const Mat3d D = edges(mesh.nodes, mesh.tets[t]);
+    b.dm_inv.push_back(D.inverse());
+    b.volume.push_back(D.determinant() / 6.0);
+    for (int k = 0; k < 4; ++k) b.mass[mesh.tets[t][k]] += 0.25 * material.density * b.volume.back();
+  }
+  b.mesh = std::move(mesh);
+  return b;
+}
+
+double FemBody::totalMass() const {
+  double m = 0.0;
+  for (double mi : mass) m += mi;
+  return m;
+}
+
+void FemBody::forces(std::vector<Vec3d>& f) const {
+  f.assign(x.size(), Vec3d::Zero());
+  // The material is visited once for the whole body, not per element.
+  std::visit(
+      [&](const auto& model) {
+        for (size_t t = 0; t < mesh.tets.size(); ++t) {
+          const auto& n = mesh.tets[t];
+          const Mat3d F = edges(x, n) * dm_inv[t];
+          // H = -V P Dm^-T: the forces on nodes 1..3; node 0 takes minus their sum.
+          const Mat3d H = -volume[t] * model.firstPiola(F) * dm_inv[t].transpose();
+          for (int k = 0; k < 3; ++k) {
+            f[n[k + 1]] += H.col(k);
+            f[n[0]] -= H.col(k);
+          }
+        }
+      },
+      model);
+}
+
+double FemBody::elasticEnergy() const {
+  double e = 0.0;
+  std::visit(
+      [&](const auto& model) {
+        for (size_t t = 0; t < mesh.tets.size(); ++t)
+          e += volume[t] * model.psi(edges(x, mesh.tets[t]) * dm_inv[t]);
+      },
+      model);
+  return e;
+}
+
+double FemBody::kineticEnergy() const {
+  double e = 0.0;
+  for (size_t i = 0; i < x.size(); ++i) e += 0.5 * mass[i] * v[i].squaredNorm();
+  return e;
+}
+
+double FemBody::stableDt(double cfl) const {
+  // Smallest element height 3V / (largest face area), at rest. Kuhn
+  // tetrahedra of a cube of side h have heights down to h / sqrt(3).
+  double h_min = mesh.spacing;
+  for (size_t t = 0; t < mesh.tets.size(); ++t) {
+    const auto& n = mesh.tets[t];
+    double face = 0.0;
+    for (int k = 0; k < 4; ++k) {
+      const Vec3d& a = mesh.nodes[n[(k + 1) % 4]];
+      const Vec3d& b = mesh.nodes[n[(k + 2) % 4]];
+      const Vec3d& c = mesh.nodes[n[(k + 3) % 4]];
+      face = std::max(face, 0.5 * (b - a).cross(c - a).norm());
+    }
+    h_min = std::min(h_min, 3.0 * volume[t] / face);
+  }
+  return cfl * h_min / wave_speed;
+}
+
+void FemBody::stepExplicit(double dt, const Vec3d& gravity, std::vector<Vec3d>& f) {
+  forces(f);
+  for (size_t i = 0; i < x.size(); ++i) {
+    if (pinned[i]) {
+      v[i].setZero();
+      continue;
+    }
+    v[i] += dt * (f[i] / mass[i] + gravity);
+    x[i] += dt * v[i];
+  }
+}
+
+}  // namespace triad
