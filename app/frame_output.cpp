@@ -77,15 +77,15 @@ std::string checkParticlesPly(const std::string& path, size_t particles) {
   return checkPlySize(path, *h, vertices * 36);
 }
 
-std::string checkBodyPly(const std::string& path, const RigidBody& body) {
+std::string checkBodyPly(const std::string& path, const TriSurface& surface) {
   const auto h = readPlyHeader(path);
   if (!h) return fs::exists(path) ? "no PLY header" : "missing";
   const size_t v = h->elements.count("vertex") ? h->elements.at("vertex") : 0;
   const size_t f = h->elements.count("face") ? h->elements.at("face") : 0;
-  if (v != body.surface.vertices.size() || f != body.surface.triangles.size())
+  if (v != surface.vertices.size() || f != surface.triangles.size())
     return std::to_string(v) + " vertices and " + std::to_string(f) + " faces, the body has " +
-           std::to_string(body.surface.vertices.size()) + " and " +
-           std::to_string(body.surface.triangles.size());
+           std::to_string(surface.vertices.size()) + " and " +
+           std::to_string(surface.triangles.size());
   return checkPlySize(path, *h, v * 12 + f * 13);
 }
 
@@ -101,9 +101,14 @@ std::string checkFrameCaches(const SceneDesc& scene, const std::string& out_dir,
   std::vector<std::string> names;
   for (const RigidBody& b : world.bodies) {
     const std::string p = bodyMeshPath(out_dir, b.name, frame);
-    const std::string why = checkBodyPly(p, b);
+    const std::string why = checkBodyPly(p, b.surface);
     if (!why.empty()) return p + ": " + why;
     names.push_back(b.name);
+  }
+  for (const ElasticSolid& e : world.elastics) {
+    const std::string p = bodyMeshPath(out_dir, e.name, frame);
+    const std::string why = checkBodyPly(p, e.surface);
+    if (!why.empty()) return p + ": " + why;
   }
   if (!names.empty()) {
     const std::string p = rigidStatesPath(out_dir);
@@ -150,7 +155,7 @@ void makeOutputDirectories(const SceneDesc& scene, const std::string& out_dir) {
   if (scene.output.vdb) makeDirectories(out_dir + "/volumes");
   if (scene.output.checkpoints) makeDirectories(checkpointDir(out_dir));
   if (std::any_of(scene.objects.begin(), scene.objects.end(),
-                  [](const ObjectDesc& o) { return o.kind == ObjectKind::Rigid; }))
+                  [](const ObjectDesc& o) { return o.kind != ObjectKind::Mpm; }))
     makeDirectories(bodiesDir(out_dir));
 }
 
@@ -171,6 +176,8 @@ void writeFrameCaches(const SceneDesc& scene, const std::string& out_dir, const 
 
 void writeFrameBodies(const std::string& out_dir, const World& world, int frame,
                       RigidStateLog& states) {
+  for (const ElasticSolid& e : world.elastics)
+    writeElasticPly(bodyMeshPath(out_dir, e.name, frame), e, world.time);
   if (world.bodies.empty()) return;
   for (const RigidBody& b : world.bodies)
     writeBodyPly(bodyMeshPath(out_dir, b.name, frame), b, world.time);
@@ -239,7 +246,9 @@ void removeOtherBodies(const std::string& out_dir, const World& world) {
     const std::string name = e.path().filename().string();
     if (!std::regex_match(name, m, bodyFilePattern())) continue;
     const bool ours = std::any_of(world.bodies.begin(), world.bodies.end(),
-                                  [&](const RigidBody& b) { return b.name == m[1].str(); });
+                                  [&](const RigidBody& b) { return b.name == m[1].str(); }) ||
+                      std::any_of(world.elastics.begin(), world.elastics.end(),
+                                  [&](const ElasticSolid& b) { return b.name == m[1].str(); });
     if (!ours) fs::remove(e.path(), ignored);
   }
 }

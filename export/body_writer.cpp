@@ -93,6 +93,12 @@ void writeBodyPly(const std::string& path, const RigidBody& body, double time) {
   writeSurfacePly(path, worldSurface(body), comment.str());
 }
 
+void writeElasticPly(const std::string& path, const ElasticSolid& solid, double time) {
+  std::ostringstream comment;
+  comment << "triad body " << solid.name << " t=" << time;
+  writeSurfacePly(path, solid.worldSurface(), comment.str());
+}
+
 std::string rigidStateRow(int frame, double time, const RigidBody& body) {
   std::string row = std::to_string(frame);
   appendNumber(row, time);

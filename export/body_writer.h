@@ -11,6 +11,7 @@
 #include <utility>
 #include <vector>
 
+#include "sim/elastic_solid.h"
 #include "sim/rigid_body.h"
 
 namespace triad {
@@ -23,6 +24,8 @@ void writeSurfacePly(const std::string& path, const TriSurface& surface,
 // The body's surface where it is now (worldSurface), with its name and the
 // time in the header comment.
 void writeBodyPly(const std::string& path, const RigidBody& body, double time);
+// The same for an elastic solid's deformed surface.
+void writeElasticPly(const std::string& path, const ElasticSolid& solid, double time);
 
 // The rows of bodies/rigid_states.csv, frame by frame.
 class RigidStateLog {

@@ -130,6 +130,9 @@ size_t payloadBytes(const std::string& scene_hash, const World& world) {
          arrayBytes(s.F) + arrayBytes(s.J) + arrayBytes(s.id) + arrayBytes(s.object);
   n += 4;
   for (const RigidBody& b : world.bodies) n += 4 + b.name.size() + sizeof(BodyRecord);
+  n += 4;
+  for (const ElasticSolid& e : world.elastics)
+    n += 4 + e.name.size() + 8 + arrayBytes(e.fem.x) + arrayBytes(e.fem.v);
   return n;
 }
 
@@ -231,6 +234,14 @@ void writeCheckpoint(const std::string& path, int frame, const std::string& scen
       w.bytes(b.name.data(), b.name.size());
       w.pod(toRecord(b.state));
     }
+    w.pod(uint32_t(world.elastics.size()));
+    for (const ElasticSolid& e : world.elastics) {
+      w.pod(uint32_t(e.name.size()));
+      w.bytes(e.name.data(), e.name.size());
+      w.pod(uint64_t(e.fem.nodes()));
+      w.array(e.fem.x);
+      w.array(e.fem.v);
+    }
 
     // Trailer: checksum of all the above.
     const uint64_t sum = w.checksum();
@@ -306,6 +317,18 @@ Checkpoint readCheckpoint(const std::string& path) {
     r.bytes(name.data(), name_len);
     c.bodies.emplace_back(std::move(name), fromRecord(r.pod<BodyRecord>()));
   }
+  const uint32_t elastics = r.pod<uint32_t>();
+  for (uint32_t k = 0; k < elastics; ++k) {
+    const uint32_t name_len = r.pod<uint32_t>();
+    if (name_len > kMaxNameBytes) throw CheckpointError("elastic solid name too long");
+    Checkpoint::Elastic e;
+    e.name.assign(name_len, '\0');
+    r.bytes(e.name.data(), name_len);
+    const uint64_t n = r.pod<uint64_t>();
+    r.array(e.x, n);
+    r.array(e.v, n);
+    c.elastics.push_back(std::move(e));
+  }
   if (!r.atEnd()) throw CheckpointError("payload longer than its contents");
   return c;
 }
@@ -336,6 +359,18 @@ void restoreCheckpoint(Checkpoint&& c, World& world, Solver& solver) {
     if (c.bodies[k].first != world.bodies[k].name)
       throw CheckpointError("rigid body " + std::to_string(k) + " is \"" + c.bodies[k].first +
                             "\", the scene's is \"" + world.bodies[k].name + "\"");
+  if (c.elastics.size() != world.elastics.size())
+    throw CheckpointError(std::to_string(c.elastics.size()) + " elastic solids, the scene has " +
+                          std::to_string(world.elastics.size()));
+  for (size_t k = 0; k < c.elastics.size(); ++k)
+    if (c.elastics[k].name != world.elastics[k].name ||
+        c.elastics[k].x.size() != world.elastics[k].fem.nodes())
+      throw CheckpointError("elastic solid " + std::to_string(k) + " (\"" + c.elastics[k].name +
+                            "\") does not match the scene's");
+  for (size_t k = 0; k < c.elastics.size(); ++k) {
+    world.elastics[k].fem.x = std::move(c.elastics[k].x);
+    world.elastics[k].fem.v = std::move(c.elastics[k].v);
+  }
   for (size_t k = 0; k < c.sets.size(); ++k) {
     ParticleSet& to = world.sets[k];
     ParticleSet& from = c.sets[k];

@@ -4,7 +4,7 @@
 // uninterrupted run would. Materials are not stored: they are rebuilt from
 // the scene, whose hash the checkpoint records.
 //
-// File (checkpoints/state.FFFF.bin), little-endian, version 2:
+// File (checkpoints/state.FFFF.bin), little-endian, version 3:
 //   header   char[8] "TRIADCKP", u32 format version, u32 header bytes (= 64),
 //            u64 payload bytes, i32 frame, u32 set count, f64 time,
 //            i64 steps, u8[16] reserved (zero)
@@ -18,6 +18,9 @@
 //            bodies       (u32 count; per rigid body, in world order: u32 name
 //                         length, name bytes, then f64 x[3], q_principal[4]
 //                         as w x y z, v[3], L[3]: its RigidState, exactly)
+//            elastics     (u32 count; per elastic solid, in world order: u32
+//                         name length, name bytes, u64 node count n, then
+//                         f64 x[3 n] and v[3 n]: node positions, velocities)
 //   trailer  u64 checksum of header and payload (FNV-1a 64 over 8-byte words),
 //            char[8] "TRIADEND"
 // Other versions are refused (a resume then starts over from frame 0).
@@ -48,9 +51,14 @@ struct Checkpoint {
   StepRecord record;  // the solver's step statistics up to this frame
   std::vector<ParticleSet> sets;  // arrays, material index, mass, volume (no model)
   std::vector<std::pair<std::string, RigidState>> bodies;  // name and state, world order
+  struct Elastic {
+    std::string name;
+    std::vector<Vec3d> x, v;  // node positions and velocities
+  };
+  std::vector<Elastic> elastics;  // world order
 };
 
-constexpr uint32_t kCheckpointVersion = 2;
+constexpr uint32_t kCheckpointVersion = 3;
 
 // Writes the world's particle sets, rigid body states and clock, the solver
 // state and the frame atomically to `path`. Throws std::runtime_error naming

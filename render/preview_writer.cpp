@@ -32,6 +32,8 @@ PreviewFrame previewFrameFromWorld(const World& world) {
   }
   for (const RigidBody& body : world.bodies)
     frame.meshes.push_back(previewMesh(worldSurface(body), body.object));
+  for (const ElasticSolid& solid : world.elastics)
+    frame.meshes.push_back(previewMesh(solid.worldSurface(), solid.object));
   return frame;
 }
 

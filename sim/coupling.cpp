@@ -28,6 +28,7 @@ inline int neighbourOf(const Vec3i& l, int a, int b, int c) {
 void SolidPoints::clear() {
   x.clear();
   v.clear();
+  point_mass.clear();
   n.clear();
   dv.clear();
   begin.clear();
@@ -159,9 +160,9 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
       const PointBlock& blk = blocks_[colour[k]];
       for (uint32_t o = blk.first; o < blk.last; o += 3) {
         const uint32_t s = order_[o + 2];
-        const float m = pts.mass[s], mu = pts.friction[s];
-        const float fixed_m = pts.fixed[s] ? m : 0.0f;
+        const float mu = pts.friction[s];
         for (uint32_t q = order_[o]; q < order_[o + 1]; ++q) {
+          const float m = pts.point_mass[q];
           const Stencil st = stencilAt(pts.x[q], p.shifted_origin, p.inv_dx);
           const Vec3i l(st.base.x() & (kBlockSize - 1), st.base.y() & (kBlockSize - 1),
                         st.base.z() & (kBlockSize - 1));
@@ -181,10 +182,8 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
                   g.n[d] += w * nq[d];
                 }
                 g.mu += w * m * mu;
-                g.fixed_m += w * fixed_m;
                 const int32_t tag = int32_t(s) + 1;
                 g.solid = g.solid == 0 || g.solid == tag ? tag : -1;
-                (void)fixed_m;
               }
         }
       }
@@ -283,7 +282,10 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
       c.i = uint32_t(i);
       c.g = uint32_t(gb * kBlockNodes + k);
       c.fixed = sn.fixed_m > 0.0f;  // any immovable solid: infinite mass
-      c.solid = sn.solid > 0 && !c.fixed ? sn.solid - 1 : -1;
+      // A node of one moving rigid body: its response feeds back (below).
+      c.solid = sn.solid > 0 && !c.fixed && pts.body_mass[size_t(sn.solid - 1)] > 0.0
+                    ? sn.solid - 1
+                    : -1;
       c.m_mpm = g.m;
       c.m_vol = sn.m;
       c.v_vol = c.fixed ? Vec3f(Vec3f::Zero()) : Vec3f(Vec3f(sn.p[0], sn.p[1], sn.p[2]) / sn.m);

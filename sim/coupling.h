@@ -23,8 +23,9 @@ struct SolidPoints {
   std::vector<Vec3f> v;   // velocity v_q* from the solid's own solver
   std::vector<Vec3f> n;   // outward unit normal
   std::vector<Vec3f> dv;  // out (gather): velocity change the grid gave the point
+  std::vector<float> point_mass;  // mass of each point, kg
   std::vector<size_t> begin;
-  std::vector<float> mass;      // per solid: mass per point, kg
+  std::vector<float> mass;      // per solid: mass per point if uniform (rigid), kg
   std::vector<float> friction;  // per solid: Coulomb coefficient against MPM material
   std::vector<uint8_t> fixed;   // per solid: immovable (infinite mass)
   // Per solid: the mass that moves as one with each of its nodes. A rigid

@@ -54,7 +54,7 @@ Solver::Solver(World& world) : world_(world) {
   for (const ParticleSet& set : world.sets)
     for (const Vec3f& v : set.v) max_speed_ = std::max(max_speed_, v.norm());
   has_particles_ = world.particleCount() > 0;
-  if (!world.bodies.empty()) {
+  if (!world.bodies.empty() || !world.elastics.empty()) {
     coupling_ = std::make_unique<GridCoupling>(scene.solver);
     for (int d = 0; d < 3; ++d) {
       contact_.lo[d] = domain.min[d];
@@ -87,6 +87,14 @@ double Solver::stableDt() const {
   const SolverDesc& s = world_.scene.solver;
   double dt = s.max_dt;
   if (speed > 0.0) dt = std::min(dt, s.cfl * world_.scene.domain.dx / speed);
+  // Elastic solids: their explicit step's limit (element height over wave
+  // speed), and their nodes' speed against the grid.
+  for (const ElasticSolid& e : world_.elastics) {
+    dt = std::min(dt, e.fem.stableDt(s.cfl));
+    double vmax = 0.0;
+    for (const Vec3d& v : e.fem.v) vmax = std::max(vmax, v.norm());
+    if (vmax > 0.0) dt = std::min(dt, s.cfl * world_.scene.domain.dx / vmax);
+  }
   return dt;
 }
 
@@ -197,6 +205,7 @@ void Solver::predictSolids(double dt) {
     points_.x.resize(first + n);
     points_.v.resize(first + n);
     points_.n.resize(first + n);
+    points_.point_mass.resize(first + n, b.sample_mass);
     const Mat3f R = b.rotation().cast<float>();
     const Vec3f c = b.state.x.cast<float>(), v = b.state.v.cast<float>();
     const Vec3f w = b.omega().cast<float>();
@@ -206,6 +215,19 @@ void Solver::predictSolids(double dt) {
       points_.x[first + q] = c + r;
       points_.v[first + q] = v + w.cross(r);
       points_.n[first + q] = R * b.n[q];
+    }
+  }
+  // Elastic solids: the explicit FEM step's velocities are their v_q*.
+  for (ElasticSolid& e : world_.elastics) {
+    FemBody& fem = e.fem;
+    fem.forces(fem_force_);
+    for (size_t i = 0; i < fem.nodes(); ++i) fem.v[i] += dt * (fem_force_[i] / fem.mass[i] + g);
+    points_.addSolid(0.0f, e.friction, false, 0.0);
+    for (size_t i = 0; i < fem.nodes(); ++i) {
+      points_.x.push_back(fem.x[i].cast<float>());
+      points_.v.push_back(fem.v[i].cast<float>());
+      points_.n.push_back(e.normal(i).cast<float>());
+      points_.point_mass.push_back(float(fem.mass[i]));
     }
   }
 }
@@ -332,6 +354,65 @@ void Solver::advanceSolids(double dt) {
       msg << "step " << world_.steps + 1 << " at t = " << world_.time << " s: rigid object '"
           << b.name << "' became non-finite: centre (" << b.state.x.transpose() << "), velocity ("
           << b.state.v.transpose() << ")";
+      throw SimulationError(msg.str());
+    }
+  }
+  for (size_t k = 0; k < world_.elastics.size(); ++k)
+    advanceElastic(world_.elastics[k], points_.begin[world_.bodies.size() + k], dt);
+}
+
+void Solver::advanceElastic(ElasticSolid& e, size_t first, double dt) {
+  FemBody& fem = e.fem;
+  // Node velocities take what the grid gave them (step 8).
+  for (size_t i = 0; i < fem.nodes(); ++i) fem.v[i] += points_.dv[first + i].cast<double>();
+  // Walls: a node may close at most its gap in this step (as rigid
+  // samples do); the normal velocity it loses bounds its friction.
+  const double mu = world_.scene.domain.boundary.type == BoundaryType::Sticky
+                        ? 1e30
+                        : world_.scene.domain.boundary.friction;
+  for (size_t i = 0; i < fem.nodes(); ++i) {
+    Vec3d& v = fem.v[i];
+    for (int d = 0; d < 3; ++d)
+      for (int side = 0; side < 2; ++side) {
+        const double sign = side == 0 ? 1.0 : -1.0;  // inward normal along axis d
+        const double gap = side == 0 ? fem.x[i][d] - contact_.lo[d] : contact_.hi[d] - fem.x[i][d];
+        const double vn = sign * v[d];
+        const double limit = -std::max(0.0, gap) / dt;
+        if (vn >= limit) continue;
+        v[d] += sign * (limit - vn);
+        Vec3d vt = v;
+        vt[d] = 0.0;
+        const double speed = vt.norm();
+        if (speed > 0.0) {
+          const double keep = std::max(0.0, speed - mu * (limit - vn)) / speed;
+          for (int a = 0; a < 3; ++a)
+            if (a != d) v[a] *= keep;
+        }
+      }
+  }
+  // Rigid bodies: a node inside one is pushed back to its surface, and the
+  // body takes the momentum.
+  for (RigidBody& b : world_.bodies) {
+    for (size_t i = 0; i < fem.nodes(); ++i) {
+      const Vec3d x = fem.x[i] + dt * fem.v[i];
+      if ((x - b.state.x).squaredNorm() > double(b.radius) * b.radius) continue;
+      const int k = b.sampleAt(x);
+      if (k < 0) continue;
+      const Mat3d R = b.rotation();
+      const Vec3d n = R * b.n[k].cast<double>();
+      const double phi = double(b.phi[k]) + n.dot(x - (b.state.x + R * b.r[k].cast<double>()));
+      if (phi >= 0.0) continue;
+      const Vec3d dv = (-phi / dt) * n;
+      fem.v[i] += dv;
+      b.applyImpulse(-fem.mass[i] * dv, x);
+    }
+  }
+  for (size_t i = 0; i < fem.nodes(); ++i) {
+    fem.x[i] += dt * fem.v[i];
+    if (!std::isfinite(fem.x[i].sum() + fem.v[i].sum())) {
+      std::ostringstream msg;
+      msg << "step " << world_.steps + 1 << " at t = " << world_.time << " s: elastic object '"
+          << e.name << "' became non-finite at node " << i;
       throw SimulationError(msg.str());
     }
   }

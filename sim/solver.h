@@ -80,6 +80,7 @@ class Solver {
   void collideSolids();
   void advanceSolids(double dt);
   void pushOutOfSolids();
+  void advanceElastic(ElasticSolid& e, size_t first, double dt);
   double solidSpeed() const;
   [[noreturn]] void reportNonFinite() const;
 
@@ -103,6 +104,7 @@ class Solver {
   ContactSettings contact_;
   ContactStats contact_stats_;
   size_t pushed_out_ = 0;
+  std::vector<Vec3d> fem_force_;
   bool shrunk_ = false;  // particles moved out of bodies in the last step
 
   float max_speed_ = 0.0f;

@@ -17,13 +17,14 @@ std::string objectKey(const SceneDesc& scene, size_t i) {
 
 Vec3d toVec(const Vec3Desc& a) { return Vec3d(a[0], a[1], a[2]); }
 
-RigidBody buildRigidBody(const SceneDesc& scene, size_t i, const SolidSampler& sampler) {
+SolidSamples sampleSolid(const SceneDesc& scene, size_t i, const SolidSampler& sampler,
+                         double density) {
   const ObjectDesc& obj = scene.objects[i];
   if (!sampler)
-    throw InputError(objectKey(scene, i), "rigid objects need a solid sampler (import/)");
+    throw InputError(objectKey(scene, i), "solid objects need a solid sampler (import/)");
   SolidSamples s;
   try {
-    s = sampler(obj.shape, scene.domain, obj.density);
+    s = sampler(obj.shape, scene.domain, density);
   } catch (const InputError& e) {
     if (!e.where().empty()) throw;
     throw InputError(objectKey(scene, i) + ".shape", e.what());
@@ -32,8 +33,26 @@ RigidBody buildRigidBody(const SceneDesc& scene, size_t i, const SolidSampler& s
     throw InputError(objectKey(scene, i) + ".shape",
                      "the shape is thinner than the collision particle spacing dx/2 everywhere: "
                      "no sample falls inside it");
+  return s;
+}
+
+RigidBody buildRigidBody(const SceneDesc& scene, size_t i, const SolidSampler& sampler) {
+  const ObjectDesc& obj = scene.objects[i];
+  SolidSamples s = sampleSolid(scene, i, sampler, obj.density);
   return makeRigidBody(int(i), obj.name, s.samples, std::move(s.surface), obj.fixed, obj.friction,
                        toVec(obj.velocity), toVec(obj.angular_velocity), scene.domain.dx);
+}
+
+ElasticSolid buildElasticSolid(const SceneDesc& scene, size_t i, const SolidSampler& sampler) {
+  const ObjectDesc& obj = scene.objects[i];
+  const MaterialDesc& m = scene.materials[size_t(obj.material)];
+  SolidSamples s = sampleSolid(scene, i, sampler, m.density);
+  try {
+    return makeElasticSolid(int(i), obj.name, s.samples, std::move(s.surface), m, obj.friction,
+                            toVec(obj.velocity));
+  } catch (const InputError& e) {
+    throw InputError(objectKey(scene, i) + ".material", e.what());
+  }
 }
 
 }  // namespace
@@ -71,9 +90,11 @@ World buildWorld(const SceneDesc& scene, const MeshSampler& mesh_sampler,
   uint32_t next_id = 0;
   for (size_t i = 0; i < scene.objects.size(); ++i) {
     const ObjectDesc& obj = scene.objects[i];
-    if (obj.kind == ObjectKind::Elastic)
-      throw InputError(objectKey(scene, i) + ".kind",
-                       "'elastic' objects are not implemented yet; use 'mpm' or 'rigid'");
+    if (obj.kind == ObjectKind::Elastic) {
+      world.elastics.push_back(buildElasticSolid(scene, i, solid_sampler));
+      world.object_particles[i] = world.elastics.back().fem.nodes();
+      continue;
+    }
     if (obj.kind == ObjectKind::Rigid) {
       world.bodies.push_back(buildRigidBody(scene, i, solid_sampler));
       world.object_particles[i] = world.bodies.back().r.size();

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "sim/collision_particles.h"
+#include "sim/elastic_solid.h"
 #include "sim/particles.h"
 #include "sim/rigid_body.h"
 #include "sim/sampling.h"
@@ -16,6 +17,7 @@ struct World {
   SceneDesc scene;
   std::vector<ParticleSet> sets;         // one per material (MPM objects)
   std::vector<RigidBody> bodies;         // rigid objects, in scene order
+  std::vector<ElasticSolid> elastics;    // elastic objects, in scene order
   std::vector<size_t> object_particles;  // particle (or collision sample) count per scene object
   double time = 0.0;                     // simulated time, s
   int64_t steps = 0;                     // substeps taken

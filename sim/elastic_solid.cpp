@@ -1,0 +1,60 @@
+#include "sim/elastic_solid.h"
+
+#include <cmath>
+
+namespace triad {
+
+Vec3d ElasticSolid::normal(size_t i) const {
+  const auto& n = fem.mesh.tets[size_t(node_tet[i])];
+  Mat3d D;
+  for (int k = 0; k < 3; ++k) D.col(k) = fem.x[n[k + 1]] - fem.x[n[0]];
+  const Mat3d F = D * fem.dm_inv[size_t(node_tet[i])];
+  const Vec3d m = F.inverse().transpose() * normal0[i];
+  const double len = m.norm();
+  return len > 0 && std::isfinite(len) ? Vec3d(m / len) : normal0[i];
+}
+
+TriSurface ElasticSolid::worldSurface() const {
+  TriSurface s;
+  s.triangles = surface.triangles;
+  s.vertices.reserve(embedding.size());
+  for (const Embedding& e : embedding)
+    s.vertices.push_back(embeddedPosition(fem.mesh, fem.x, e).cast<float>());
+  return s;
+}
+
+ElasticSolid makeElasticSolid(int object, const std::string& name, const CollisionSamples& samples,
+                              TriSurface surface, const MaterialDesc& material, double friction,
+                              const Vec3d& velocity) {
+  ElasticSolid e;
+  e.object = object;
+  e.name = name;
+  e.friction = static_cast<float>(friction);
+  std::vector<Vec3d> centres;
+  centres.reserve(samples.size());
+  for (const Vec3f& p : samples.x) centres.push_back(p.cast<double>());
+  e.fem = makeFemBody(tetsFromVoxels(centres, samples.spacing), material);
+  for (Vec3d& v : e.fem.v) v = velocity;
+  // Node normals: each cell gives its sample's normal to its corners.
+  const TetMesh& m = e.fem.mesh;
+  e.normal0.assign(m.nodes.size(), Vec3d::Zero());
+  e.node_tet.assign(m.nodes.size(), 0);
+  for (size_t t = 0; t < m.tets.size(); ++t) {
+    const Vec3d n = samples.normal[t / 6].cast<double>();
+    for (int k = 0; k < 4; ++k) {
+      e.normal0[size_t(m.tets[t][k])] += n;
+      e.node_tet[size_t(m.tets[t][k])] = int(t);
+    }
+  }
+  for (Vec3d& n : e.normal0) {
+    const double len = n.norm();
+    n = len > 0 ? Vec3d(n / len) : Vec3d(0, 1, 0);
+  }
+  std::vector<Vec3d> verts;
+  for (const Vec3f& v : surface.vertices) verts.push_back(v.cast<double>());
+  e.embedding = embed(m, verts);
+  e.surface = std::move(surface);
+  return e;
+}
+
+}  // namespace triad

@@ -1,0 +1,38 @@
+#pragma once
+// Volumetric elastic solids (issue 5): a voxel tetrahedral mesh whose nodes
+// are the solid's collision particles (coupling.md), finite-element forces,
+// and the imported surface embedded in the mesh for caches and previews.
+#include <string>
+#include <vector>
+
+#include "sim/collision_particles.h"
+#include "sim/fem.h"
+#include "sim/tet_mesh.h"
+
+namespace triad {
+
+struct ElasticSolid {
+  int object = -1;  // index into SceneDesc::objects
+  std::string name;
+  float friction = 0.0f;  // Coulomb coefficient against MPM material
+  FemBody fem;
+  // Per node: outward normal at rest (mean of its cells' SDF normals) and
+  // one element it belongs to, whose deformation turns the normal.
+  std::vector<Vec3d> normal0;
+  std::vector<int> node_tet;
+  TriSurface surface;                 // at rest, world space
+  std::vector<Embedding> embedding;   // per surface vertex
+
+  // Outward normal of node i now: F^-T N, normalised.
+  Vec3d normal(size_t i) const;
+  // The surface moved with the mesh.
+  TriSurface worldSurface() const;
+};
+
+// Builds the solid from its collision samples (cells of side h centred on
+// them), with an initial velocity.
+ElasticSolid makeElasticSolid(int object, const std::string& name, const CollisionSamples& samples,
+                              TriSurface surface, const MaterialDesc& material, double friction,
+                              const Vec3d& velocity);
+
+}  // namespace triad
