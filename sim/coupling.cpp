@@ -41,13 +41,13 @@ void SolidPoints::clear() {
   inv_inertia.clear();
 }
 
-size_t SolidPoints::addSolid(float point_mass, float mu, bool is_fixed, double whole_mass) {
+size_t SolidPoints::addSolid(float uniform_mass, float mu, bool is_fixed, double whole_mass) {
   begin.push_back(x.size());
   body_mass.push_back(whole_mass);
   centre.push_back(Vec3f::Zero());
   inv_mass.push_back(0.0f);
   inv_inertia.push_back(Mat3f::Zero());
-  mass.push_back(point_mass);
+  mass.push_back(uniform_mass);
   friction.push_back(mu);
   fixed.push_back(is_fixed ? 1 : 0);
   return mass.size() - 1;

@@ -42,7 +42,7 @@ struct SolidPoints {
   size_t solids() const { return mass.size(); }
   void clear();
   // Starts the points of a new solid; returns its index.
-  size_t addSolid(float point_mass, float mu, bool is_fixed, double whole_mass);
+  size_t addSolid(float uniform_mass, float mu, bool is_fixed, double whole_mass);
 };
 
 // What a coupling step did, for tests and the run record.

@@ -55,30 +55,37 @@ double FemBody::totalMass() const {
 }
 
 void FemBody::forces(std::vector<Vec3d>& f) const {
-  f.assign(x.size(), Vec3d::Zero());
+  // Element stresses in parallel (the polar decomposition is the cost),
+  // then a serial scatter in element order: the same sums on any number of
+  // threads.
+  h_.resize(mesh.tets.size());
   // The material is visited once for the whole body, not per element.
   std::visit(
-      [&](const auto& model) {
-        for (size_t t = 0; t < mesh.tets.size(); ++t) {
-          const auto& n = mesh.tets[t];
-          const Mat3d F = edges(x, n) * dm_inv[t];
+      [&](const auto& mat) {
+#pragma omp parallel for schedule(static) if (mesh.tets.size() > 512)
+        for (int64_t t = 0; t < int64_t(mesh.tets.size()); ++t) {
+          const Mat3d F = edges(x, mesh.tets[t]) * dm_inv[t];
           // H = -V P Dm^-T: the forces on nodes 1..3; node 0 takes minus their sum.
-          const Mat3d H = -volume[t] * model.firstPiola(F) * dm_inv[t].transpose();
-          for (int k = 0; k < 3; ++k) {
-            f[n[k + 1]] += H.col(k);
-            f[n[0]] -= H.col(k);
-          }
+          h_[t] = -volume[t] * mat.firstPiola(F) * dm_inv[t].transpose();
         }
       },
       model);
+  f.assign(x.size(), Vec3d::Zero());
+  for (size_t t = 0; t < mesh.tets.size(); ++t) {
+    const auto& n = mesh.tets[t];
+    for (int k = 0; k < 3; ++k) {
+      f[n[k + 1]] += h_[t].col(k);
+      f[n[0]] -= h_[t].col(k);
+    }
+  }
 }
 
 double FemBody::elasticEnergy() const {
   double e = 0.0;
   std::visit(
-      [&](const auto& model) {
+      [&](const auto& mat) {
         for (size_t t = 0; t < mesh.tets.size(); ++t)
-          e += volume[t] * model.psi(edges(x, mesh.tets[t]) * dm_inv[t]);
+          e += volume[t] * mat.psi(edges(x, mesh.tets[t]) * dm_inv[t]);
       },
       model);
   return e;

@@ -31,6 +31,7 @@ struct FemBody {
   std::vector<Mat3d> dm_inv;    // per element: inverse of the rest edge matrix
   std::vector<double> volume;   // per element: rest volume
   std::vector<char> pinned;     // nodes held in place (boundary conditions)
+  mutable std::vector<Mat3d> h_;  // per element force matrices (scratch of forces())
 
   size_t nodes() const { return x.size(); }
   double totalMass() const;

@@ -207,8 +207,9 @@ double momentumDrift(const std::string& readback, const std::string& velocity,
   Solver solver(w);
   solver.advanceTo(0.15);
   EXPECT_TRUE(finiteWorld(w));
-  if (readback == "momentum_conserving")
+  if (readback == "momentum_conserving") {
     EXPECT_GT(w.bodies[0].state.v.x(), 0.5) << tag << ": the hit moved the box";
+  }
   return (total() - p0).norm() / p0.norm();
 }
 
