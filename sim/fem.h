@@ -37,6 +37,8 @@ struct FemBody {
   double totalMass() const;
   // Elastic forces on the nodes, -dE/dx: f is resized and overwritten.
   void forces(std::vector<Vec3d>& f) const;
+  // The same at node positions y.
+  void forcesAt(const std::vector<Vec3d>& y, std::vector<Vec3d>& f) const;
   double elasticEnergy() const;
   double kineticEnergy() const;
   // Largest stable explicit step: cfl times the time a dilatational wave
@@ -45,6 +47,15 @@ struct FemBody {
   // Symplectic Euler: v += dt (f / m + g), then x += dt v; pinned nodes
   // keep their velocity zero.
   void stepExplicit(double dt, const Vec3d& gravity, std::vector<Vec3d>& scratch);
+  // Backward Euler: the velocities v* = (x_new - x) / dt where x_new
+  // minimises the incremental potential sum m/(2 dt^2) |x - x^|^2 + E(x),
+  // x^ = x + dt v + dt^2 g, by Newton's method (element Hessians projected
+  // to positive semi-definite, Eigen's sparse LDL^T, backtracking line
+  // search). Positions are not moved. Returns the Newton iterations taken.
+  int implicitVelocities(double dt, const Vec3d& gravity, std::vector<Vec3d>& v_new) const;
+  // Incremental potential at positions y (for the line search and tests).
+  double incrementalPotential(const std::vector<Vec3d>& y, const std::vector<Vec3d>& target,
+                              double dt) const;
 };
 
 FemBody makeFemBody(TetMesh mesh, const MaterialDesc& material);

@@ -163,3 +163,64 @@ TEST(Fem, ColumnSagsByRhoGHSquaredOverTwoE) {
 
 }  // namespace
 }  // namespace triad
+
+namespace triad {
+namespace {
+
+// Backward Euler at 20 times the explicit stable step: explicit blows up
+// there, implicit stays finite and never gains energy (at this step its
+// numerical damping is strong: the block moves, then settles).
+TEST(Fem, ImplicitIsStableWhereExplicitIsNot) {
+  auto stretched = []() {
+    FemBody b = makeFemBody(tetsFromVoxels(boxCells(Vec3d::Zero(), {6, 3, 3}, 0.01), 0.01),
+                            rubber(1e5, 0.3));
+    for (Vec3d& p : b.x) p.x() *= 1.05;
+    return b;
+  };
+  FemBody ex = stretched(), im = stretched();
+  const double dt = 20 * ex.stableDt(0.5);
+  std::vector<Vec3d> f, v;
+  for (int s = 0; s < 50; ++s) ex.stepExplicit(dt, Vec3d::Zero(), f);
+  double ex_max = 0.0;
+  for (const Vec3d& p : ex.x) ex_max = std::max(ex_max, std::isfinite(p.norm()) ? p.norm() : 1e300);
+  EXPECT_GT(ex_max, 1.0);  // exploded (or went non-finite)
+
+  const double e0 = im.elasticEnergy();
+  double e_prev = e0, ke_max = 0.0;
+  for (int s = 0; s < 50; ++s) {
+    im.implicitVelocities(dt, Vec3d::Zero(), v);
+    im.v = v;
+    for (size_t i = 0; i < im.nodes(); ++i) im.x[i] += dt * im.v[i];
+    const double e = im.kineticEnergy() + im.elasticEnergy();
+    ASSERT_TRUE(std::isfinite(e));
+    EXPECT_LE(e, e_prev * (1 + 1e-9));  // backward Euler never adds energy
+    e_prev = e;
+    ke_max = std::max(ke_max, im.kineticEnergy());
+  }
+  EXPECT_GT(ke_max, 0.02 * e0);  // it moved before the damping took the energy
+}
+
+// Implicit steps of a pinned column settle to the static sag, at steps far
+// beyond the explicit limit, with no added damping.
+TEST(Fem, ImplicitColumnSettlesToStaticSag) {
+  const double h = 0.02, H = 0.2, E = 2e5, rho = 1000, g = 9.81;
+  FemBody b = makeFemBody(tetsFromVoxels(boxCells(Vec3d::Zero(), {2, 10, 2}, h), h),
+                          rubber(E, 0.0));
+  for (size_t i = 0; i < b.x.size(); ++i) b.pinned[i] = b.x[i].y() < 1e-9;
+  const double dt = 50 * b.stableDt(0.5);
+  std::vector<Vec3d> v;
+  for (int s = 0; s < 60; ++s) {
+    b.implicitVelocities(dt, Vec3d(0, -g, 0), v);
+    b.v = v;
+    for (size_t i = 0; i < b.nodes(); ++i) b.x[i] += dt * b.v[i];
+  }
+  double top = 0.0;
+  int n = 0;
+  for (size_t i = 0; i < b.x.size(); ++i)
+    if (std::abs(b.mesh.nodes[i].y() - H) < 1e-9) top += b.x[i].y(), ++n;
+  const double expect = rho * g * H * H / (2 * E);
+  EXPECT_NEAR(H - top / n, expect, 0.05 * expect);
+}
+
+}  // namespace
+}  // namespace triad
