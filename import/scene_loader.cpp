@@ -44,6 +44,8 @@ const ParamDict::Choices<ContactVelocity> kContactVelocities = {
 const ParamDict::Choices<SolidReadback> kReadbacks = {
     {"momentum_conserving", SolidReadback::MomentumConserving},
     {"combined", SolidReadback::Combined}};
+const ParamDict::Choices<ElasticIntegrator> kIntegrators = {
+    {"explicit", ElasticIntegrator::Explicit}, {"implicit", ElasticIntegrator::Implicit}};
 const ParamDict::Choices<RigidNodeMass> kNodeMasses = {{"body_share", RigidNodeMass::BodyShare},
                                                         {"node", RigidNodeMass::Node}};
 const ParamDict::Choices<MaterialModel> kModels = {
@@ -314,6 +316,7 @@ std::string objectKeyHint(ObjectKind kind, const std::string& key) {
   if (key == "density")
     return "only rigid objects take a density; others get it from their material";
   if (key == "fixed" || key == "angular_velocity") return "only rigid objects take it";
+  if (key == "integrator") return "only elastic objects take it";
   if (key == "friction" && kind == ObjectKind::Mpm) {
     return "only rigid and elastic objects take it, for contact with MPM material";
   }
@@ -362,6 +365,7 @@ ObjectDesc parseObject(const ParamDict& d, const std::vector<MaterialDesc>& mate
                                inQuotes(nameOf(kModels, m.model)));
       }
       o.friction = d.getDouble("friction", o.friction, Range::nonNegative());
+      o.integrator = d.getEnum("integrator", o.integrator, kIntegrators);
       break;
     }
     case ObjectKind::Rigid:

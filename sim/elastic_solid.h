@@ -15,6 +15,7 @@ struct ElasticSolid {
   int object = -1;  // index into SceneDesc::objects
   std::string name;
   float friction = 0.0f;  // Coulomb coefficient against MPM material
+  bool implicit = false;  // backward Euler instead of symplectic Euler
   FemBody fem;
   // Per node: outward normal at rest (mean of its cells' SDF normals) and
   // one element it belongs to, whose deformation turns the normal.

@@ -25,6 +25,7 @@ enum class SolidReadback { MomentumConserving, Combined };
 enum class RigidNodeMass { BodyShare, Node };
 enum class MaterialModel { FixedCorotated, NeoHookean, Snow, DruckerPrager, Water };
 enum class ObjectKind { Mpm, Rigid, Elastic };
+enum class ElasticIntegrator { Explicit, Implicit };
 
 struct FramesDesc {
   int count = 48;
@@ -109,6 +110,7 @@ struct ObjectDesc {
   double density = 0.0;                // rigid only
   bool fixed = false;                  // rigid only
   double friction = 0.0;               // against MPM material (rigid, elastic)
+  ElasticIntegrator integrator = ElasticIntegrator::Explicit;  // elastic only
 };
 
 struct OutputDesc {

@@ -90,7 +90,7 @@ double Solver::stableDt() const {
   // Elastic solids: their explicit step's limit (element height over wave
   // speed), and their nodes' speed against the grid.
   for (const ElasticSolid& e : world_.elastics) {
-    dt = std::min(dt, e.fem.stableDt(s.cfl));
+    if (!e.implicit) dt = std::min(dt, e.fem.stableDt(s.cfl));
     double vmax = 0.0;
     for (const Vec3d& v : e.fem.v) vmax = std::max(vmax, v.norm());
     if (vmax > 0.0) dt = std::min(dt, s.cfl * world_.scene.domain.dx / vmax);
@@ -220,8 +220,13 @@ void Solver::predictSolids(double dt) {
   // Elastic solids: the explicit FEM step's velocities are their v_q*.
   for (ElasticSolid& e : world_.elastics) {
     FemBody& fem = e.fem;
-    fem.forces(fem_force_);
-    for (size_t i = 0; i < fem.nodes(); ++i) fem.v[i] += dt * (fem_force_[i] / fem.mass[i] + g);
+    if (e.implicit) {
+      fem.implicitVelocities(dt, g, fem_force_);
+      fem.v.swap(fem_force_);
+    } else {
+      fem.forces(fem_force_);
+      for (size_t i = 0; i < fem.nodes(); ++i) fem.v[i] += dt * (fem_force_[i] / fem.mass[i] + g);
+    }
     points_.addSolid(0.0f, e.friction, false, 0.0);
     for (size_t i = 0; i < fem.nodes(); ++i) {
       points_.x.push_back(fem.x[i].cast<float>());

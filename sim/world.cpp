@@ -48,8 +48,10 @@ ElasticSolid buildElasticSolid(const SceneDesc& scene, size_t i, const SolidSamp
   const MaterialDesc& m = scene.materials[size_t(obj.material)];
   SolidSamples s = sampleSolid(scene, i, sampler, m.density);
   try {
-    return makeElasticSolid(int(i), obj.name, s.samples, std::move(s.surface), m, obj.friction,
-                            toVec(obj.velocity));
+    ElasticSolid e = makeElasticSolid(int(i), obj.name, s.samples, std::move(s.surface), m,
+                                      obj.friction, toVec(obj.velocity));
+    e.implicit = obj.integrator == ElasticIntegrator::Implicit;
+    return e;
   } catch (const InputError& e) {
     throw InputError(objectKey(scene, i) + ".material", e.what());
   }

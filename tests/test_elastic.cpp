@@ -38,8 +38,10 @@ double height(const FemBody& b) {
 }
 
 // A jelly cube dropped at 2 m/s on a sand bed squashes on impact, comes to
-// rest on the sand, and no sand ends up inside it.
-TEST(Elastic, JellyCubeDroppedOnSand) {
+// rest on the sand, and no sand ends up inside it; with either integrator.
+class JellyOnSand : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(JellyOnSand, SquashesAndRests) {
   json j = test::baseScene("jelly_on_sand", {0.4, 0.5, 0.4}, 0.025);
   j["materials"]["sand"] = {{"model", "drucker_prager"}, {"density", 1600},
                             {"youngs_modulus", 3.5e5}, {"poisson_ratio", 0.3},
@@ -47,8 +49,10 @@ TEST(Elastic, JellyCubeDroppedOnSand) {
   j["materials"]["jelly"] = jelly(3e4);
   j["objects"].push_back({{"name", "sand"}, {"kind", "mpm"}, {"material", "sand"},
                           {"shape", box({0, 0, 0}, {0.4, 0.1, 0.4})}});
-  j["objects"].push_back(elastic("cube", box({0.12, 0.2, 0.12}, {0.28, 0.36, 0.28}), {0, -2, 0}));
-  World w = test::loadWorld(test::tempDir("jelly_on_sand"), j);
+  json obj = elastic("cube", box({0.12, 0.2, 0.12}, {0.28, 0.36, 0.28}), {0, -2, 0});
+  obj["integrator"] = GetParam();
+  j["objects"].push_back(obj);
+  World w = test::loadWorld(test::tempDir("jelly_on_sand_" + GetParam()), j);
   ASSERT_EQ(w.elastics.size(), 1u);
   const FemBody& cube = w.elastics[0].fem;
   const double h0 = height(cube);
@@ -74,6 +78,40 @@ TEST(Elastic, JellyCubeDroppedOnSand) {
     for (size_t i = 0; i < s.size(); ++i)
       if (s.x[i].y() > lo + 0.025) ++inside;  // above the cube's bottom: on or in it
   EXPECT_EQ(inside, 0u);
+}
+
+// Implicit is tested on its own (tests/test_fem.cpp): here, at the MPM's
+// step, its sparse factorisation per Newton iteration costs minutes.
+INSTANTIATE_TEST_SUITE_P(Integrators, JellyOnSand, ::testing::Values("explicit"));
+
+// integrator: implicit from a scene: a small, stiff cube in free fall takes
+// steps limited by its speed only (explicit would need 1e-5 s), falls as a
+// body should and keeps its shape. (Contacts act outside the Newton solve
+// for now, which at such steps lets a stiff implicit solid distort against
+// a wall: not yet tested, see the note.)
+TEST(Elastic, ImplicitCubeFromSceneFallsFreely) {
+  json j = test::baseScene("implicit_cube", {0.3, 0.6, 0.3}, 0.025);
+  j["solver"] = {{"max_dt", 2e-3}};
+  j["materials"]["jelly"] = jelly(1e7);
+  json obj = elastic("cube", box({0.125, 0.45, 0.125}, {0.175, 0.5, 0.175}), {0, -1, 0});
+  obj["integrator"] = "implicit";
+  j["objects"].push_back(obj);
+  World w = test::loadWorld(test::tempDir("implicit_cube"), j);
+  ASSERT_TRUE(w.elastics[0].implicit);
+  Solver solver(w);
+  EXPECT_GT(solver.stableDt(), 1e-3);  // not the explicit element limit
+  const FemBody& b = w.elastics[0].fem;
+  auto centre = [&]() {
+    double y = 0.0;
+    for (size_t i = 0; i < b.nodes(); ++i) y += b.mass[i] * b.x[i].y();
+    return y / b.totalMass();
+  };
+  const double y0 = centre(), t = 0.2;
+  solver.advanceTo(t);
+  ASSERT_TRUE(finite(b));
+  // Backward Euler's gravity lands one step late: within g t dt.
+  EXPECT_NEAR(centre(), y0 - 1.0 * t - 0.5 * 9.81 * t * t, 9.81 * t * 2e-3 + 1e-4);
+  EXPECT_NEAR(height(b), 0.05, 1e-4);
 }
 
 // Very stiff and very soft cubes dropped on the floor stay finite.

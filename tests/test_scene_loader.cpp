@@ -467,6 +467,12 @@ TEST_F(SceneLoaderTest, NamesMustBeSafeForFiles) {
   EXPECT_TRUE(contains(error(with(exampleScene(), "/name", "")), {"name", "non-empty"}));
 }
 
+TEST_F(SceneLoaderTest, IntegratorOnlyForElasticObjects) {
+  // objects[2] of the example scene is a rigid ball.
+  EXPECT_TRUE(contains(error(with(exampleScene(), "/objects/2/integrator", "implicit")),
+                       {"objects[2].integrator", "only elastic objects take it"}));
+}
+
 TEST_F(SceneLoaderTest, ObjectNamesMustBeSafeForFiles) {
   // A rigid object's name names its files: bodies/NAME.FFFF.ply.
   for (const char* bad : {"", ".", "..", "my ball", "a/b", "a\\b", "b\xC3\xA4ll", "ball*", "x:y"})
