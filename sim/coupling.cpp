@@ -23,6 +23,24 @@ inline int neighbourOf(const Vec3i& l, int a, int b, int c) {
          ((l.z() + c) >> kBlockBits);
 }
 
+
+// Calls f(w, slot node index) for every node of point x's quadratic stencil
+// that lies in one of base block blk's eight grid blocks with a slot.
+template <class Block, class F>
+void forStencil(const Block& blk, const Vec3f& x, const TransferParams& p, F&& f) {
+  const Stencil st = stencilAt(x, p.shifted_origin, p.inv_dx);
+  const Vec3i l(st.base.x() & (kBlockSize - 1), st.base.y() & (kBlockSize - 1),
+                st.base.z() & (kBlockSize - 1));
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b)
+      for (int c = 0; c < 3; ++c) {
+        const int32_t slot = blk.slot[neighbourOf(l, a, b, c)];
+        if (slot == kNoSlot) continue;
+        f(st.w[0][a] * st.w[1][b] * st.w[2][c],
+          size_t(slot) * kBlockNodes + localNode(l.x() + a, l.y() + b, l.z() + c));
+      }
+}
+
 }  // namespace
 
 void SolidPoints::clear() {
@@ -163,28 +181,19 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
         const float mu = pts.friction[s];
         for (uint32_t q = order_[o]; q < order_[o + 1]; ++q) {
           const float m = pts.point_mass[q];
-          const Stencil st = stencilAt(pts.x[q], p.shifted_origin, p.inv_dx);
-          const Vec3i l(st.base.x() & (kBlockSize - 1), st.base.y() & (kBlockSize - 1),
-                        st.base.z() & (kBlockSize - 1));
           const Vec3f& v = pts.v[q];
           const Vec3f& nq = pts.n[q];
-          for (int a = 0; a < 3; ++a)
-            for (int b = 0; b < 3; ++b)
-              for (int c = 0; c < 3; ++c) {
-                const int32_t slot = blk.slot[neighbourOf(l, a, b, c)];
-                if (slot == kNoSlot) continue;
-                const float w = st.w[0][a] * st.w[1][b] * st.w[2][c];
-                SolidNode& g =
-                    nodes_[size_t(slot) * kBlockNodes + localNode(l.x() + a, l.y() + b, l.z() + c)];
-                g.m += w * m;
-                for (int d = 0; d < 3; ++d) {
-                  g.p[d] += w * m * v[d];
-                  g.n[d] += w * nq[d];
-                }
-                g.mu += w * m * mu;
-                const int32_t tag = int32_t(s) + 1;
-                g.solid = g.solid == 0 || g.solid == tag ? tag : -1;
-              }
+          const int32_t tag = int32_t(s) + 1;
+          forStencil(blk, pts.x[q], p, [&](float w, size_t i) {
+            SolidNode& g = nodes_[i];
+            g.m += w * m;
+            for (int d = 0; d < 3; ++d) {
+              g.p[d] += w * m * v[d];
+              g.n[d] += w * nq[d];
+            }
+            g.mu += w * m * mu;
+            g.solid = g.solid == 0 || g.solid == tag ? tag : -1;
+          });
         }
       }
     }
@@ -424,18 +433,8 @@ void GridCoupling::gather(SolidPoints& pts, const TransferParams& p) const {
     const PointBlock& blk = blocks_[k];
     for (uint32_t o = blk.first; o < blk.last; o += 3) {
       for (uint32_t q = order_[o]; q < order_[o + 1]; ++q) {
-        const Stencil st = stencilAt(pts.x[q], p.shifted_origin, p.inv_dx);
-        const Vec3i l(st.base.x() & (kBlockSize - 1), st.base.y() & (kBlockSize - 1),
-                      st.base.z() & (kBlockSize - 1));
         Vec3f dv = Vec3f::Zero();
-        for (int a = 0; a < 3; ++a)
-          for (int b = 0; b < 3; ++b)
-            for (int c = 0; c < 3; ++c) {
-              const int32_t slot = blk.slot[neighbourOf(l, a, b, c)];
-              if (slot == kNoSlot) continue;
-              const float w = st.w[0][a] * st.w[1][b] * st.w[2][c];
-              dv += w * delta_[size_t(slot) * kBlockNodes + localNode(l.x() + a, l.y() + b, l.z() + c)];
-            }
+        forStencil(blk, pts.x[q], p, [&](float w, size_t i) { dv += w * delta_[i]; });
         pts.dv[q] = dv;
       }
     }

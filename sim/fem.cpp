@@ -51,6 +51,21 @@ FemBody makeFemBody(TetMesh mesh, const MaterialDesc& material) {
     b.volume.push_back(D.determinant() / 6.0);
     for (int k = 0; k < 4; ++k) b.mass[mesh.tets[t][k]] += 0.25 * material.density * b.volume.back();
   }
+  // Smallest element height 3V / (largest face area), at rest: the
+  // explicit step's length scale (Kuhn tetrahedra of a cube of side h have
+  // heights down to h / sqrt(3)).
+  b.min_height = mesh.spacing;
+  for (size_t t = 0; t < mesh.tets.size(); ++t) {
+    const auto& n = mesh.tets[t];
+    double face = 0.0;
+    for (int k = 0; k < 4; ++k) {
+      const Vec3d& a = mesh.nodes[n[(k + 1) % 4]];
+      const Vec3d& p = mesh.nodes[n[(k + 2) % 4]];
+      const Vec3d& c = mesh.nodes[n[(k + 3) % 4]];
+      face = std::max(face, 0.5 * (p - a).cross(c - a).norm());
+    }
+    b.min_height = std::min(b.min_height, 3.0 * b.volume[t] / face);
+  }
   b.mesh = std::move(mesh);
   return b;
 }
@@ -106,23 +121,7 @@ double FemBody::kineticEnergy() const {
   return e;
 }
 
-double FemBody::stableDt(double cfl) const {
-  // Smallest element height 3V / (largest face area), at rest. Kuhn
-  // tetrahedra of a cube of side h have heights down to h / sqrt(3).
-  double h_min = mesh.spacing;
-  for (size_t t = 0; t < mesh.tets.size(); ++t) {
-    const auto& n = mesh.tets[t];
-    double face = 0.0;
-    for (int k = 0; k < 4; ++k) {
-      const Vec3d& a = mesh.nodes[n[(k + 1) % 4]];
-      const Vec3d& b = mesh.nodes[n[(k + 2) % 4]];
-      const Vec3d& c = mesh.nodes[n[(k + 3) % 4]];
-      face = std::max(face, 0.5 * (b - a).cross(c - a).norm());
-    }
-    h_min = std::min(h_min, 3.0 * volume[t] / face);
-  }
-  return cfl * h_min / wave_speed;
-}
+double FemBody::stableDt(double cfl) const { return cfl * min_height / wave_speed; }
 
 void FemBody::stepExplicit(double dt, const Vec3d& gravity, std::vector<Vec3d>& f) {
   forces(f);

@@ -25,6 +25,7 @@ struct FemBody {
   ElasticModel model;
   double density = 0.0;
   double wave_speed = 0.0;  // dilatational, sqrt((lambda + 2 mu) / rho)
+  double min_height = 0.0;  // smallest element height at rest
 
   std::vector<Vec3d> x, v;      // node positions and velocities
   std::vector<double> mass;     // lumped: a quarter of each element's mass

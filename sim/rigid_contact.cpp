@@ -59,7 +59,7 @@ void wallContacts(const RigidBody& body, int index, const ContactSettings& s, do
 }
 
 // Surface samples of body a inside body b's sample lattice.
-void pairContacts(const std::vector<RigidBody>& bodies, int ia, int ib, double dt,
+void pairContacts(const std::vector<RigidBody>& bodies, int ia, int ib,
                   std::vector<Contact>& out) {
   const RigidBody& a = bodies[ia];
   const RigidBody& b = bodies[ib];
@@ -81,7 +81,6 @@ void pairContacts(const std::vector<RigidBody>& bodies, int ia, int ib, double d
     // a's surface lies -phi_a beyond its sample.
     out.push_back({ia, ib, p, nb, phi_b + double(a.phi[q]), mu});
   }
-  (void)dt;
 }
 
 }  // namespace
@@ -100,8 +99,8 @@ std::vector<Contact> findContacts(const std::vector<RigidBody>& bodies, const Co
                            (a.state.v - b.state.v).norm() * dt +
                            (a.omega().norm() * a.radius + b.omega().norm() * b.radius) * dt;
       if ((a.state.x - b.state.x).norm() > reach) continue;
-      pairContacts(bodies, int(i), int(j), dt, out);
-      pairContacts(bodies, int(j), int(i), dt, out);
+      pairContacts(bodies, int(i), int(j), out);
+      pairContacts(bodies, int(j), int(i), out);
     }
   return out;
 }

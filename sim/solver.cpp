@@ -398,12 +398,12 @@ void Solver::advanceElastic(ElasticSolid& e, size_t first, double dt) {
   // Rigid bodies: a node inside one is pushed back to its surface, and the
   // body takes the momentum.
   for (RigidBody& b : world_.bodies) {
+    const Mat3d R = b.rotation();
     for (size_t i = 0; i < fem.nodes(); ++i) {
       const Vec3d x = fem.x[i] + dt * fem.v[i];
       if ((x - b.state.x).squaredNorm() > double(b.radius) * b.radius) continue;
       const int k = b.sampleAt(x);
       if (k < 0) continue;
-      const Mat3d R = b.rotation();
       const Vec3d n = R * b.n[k].cast<double>();
       const double phi = double(b.phi[k]) + n.dot(x - (b.state.x + R * b.r[k].cast<double>()));
       if (phi >= 0.0) continue;
