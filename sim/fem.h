@@ -3,8 +3,9 @@
 // linear tetrahedra, lumped masses, hyperelastic forces from the same
 // material models as MPM (psi, P, dP/dF in sim/elastic_models.h), in
 // double precision. This file holds the element mechanics and the explicit
-// integrator; coupling to MPM goes through the solid's nodes as collision
-// particles (coupling.md), to be wired in with the implicit integrator.
+// integrator; the implicit one is in sim/fem_implicit.cpp. Coupling to MPM
+// goes through the solid's nodes as collision particles (coupling.md).
+#include <memory>
 #include <variant>
 #include <vector>
 
@@ -19,6 +20,39 @@ using ElasticModel = std::variant<FixedCorotated<double>, NeoHookean<double>>;
 
 // The elastic models FEM takes; throws InputError for the others.
 ElasticModel makeElasticModel(const MaterialDesc& desc);
+
+// Edge matrix [p1 - p0, p2 - p0, p3 - p0] of a tetrahedron.
+Mat3d edges(const std::vector<Vec3d>& p, const std::array<int, 4>& n);
+
+// One side of an obstacle near a node, for the implicit solve: the node
+// ends the step with n . y >= b. Friction acts against the obstacle's
+// velocity there.
+struct NodePlane {
+  int node = 0;
+  Vec3d n = Vec3d::UnitY();  // unit, out of the obstacle
+  double b = 0.0;
+  Vec3d velocity = Vec3d::Zero();
+  double friction = 0.0;
+  double impulse = 0.0;                    // out: normal impulse the node received, N s
+  Vec3d friction_impulse = Vec3d::Zero();  // out: and the friction's
+};
+
+// What the implicit solve keeps its nodes out of: the walls of the box
+// [lo, hi] and planes of obstacles. Each is a one-sided quadratic penalty
+// on the incremental potential, kappa m / dt^2 per node, which leaves a
+// node 1 / (1 + kappa) of the penetration it would otherwise make; the
+// solver's velocity clamps remove the rest. Friction is lagged: after the
+// solve a node's tangential velocity loses up to mu times the normal
+// velocity its contacts gave it.
+struct FemContacts {
+  bool walls = false;
+  Vec3d lo = Vec3d::Zero(), hi = Vec3d::Zero();
+  double wall_friction = 0.0;
+  std::vector<NodePlane> planes;
+  double kappa = 100.0;
+};
+
+struct ImplicitCache;  // sparsity pattern and symbolic factorisation (fem_implicit.cpp)
 
 struct FemBody {
   TetMesh mesh;
@@ -52,11 +86,22 @@ struct FemBody {
   // minimises the incremental potential sum m/(2 dt^2) |x - x^|^2 + E(x),
   // x^ = x + dt v + dt^2 g, by Newton's method (element Hessians projected
   // to positive semi-definite, Eigen's sparse LDL^T, backtracking line
-  // search). Positions are not moved. Returns the Newton iterations taken.
-  int implicitVelocities(double dt, const Vec3d& gravity, std::vector<Vec3d>& v_new) const;
+  // search), with the contacts' penalties when given. Positions are not
+  // moved. Returns the Newton iterations taken.
+  int implicitVelocities(double dt, const Vec3d& gravity, std::vector<Vec3d>& v_new,
+                         FemContacts* contacts = nullptr) const;
   // Incremental potential at positions y (for the line search and tests).
   double incrementalPotential(const std::vector<Vec3d>& y, const std::vector<Vec3d>& target,
-                              double dt) const;
+                              double dt, const FemContacts* contacts = nullptr) const;
+  // Linear solves of the last implicit step: conjugate-gradient iterations
+  // and whether the direct solver was used.
+  struct SolveStats {
+    int newton = 0, cg_iterations = 0, direct = 0;
+  };
+  SolveStats lastSolve() const;
+
+  // Built on the first implicit step; shared by copies (same mesh).
+  mutable std::shared_ptr<ImplicitCache> implicit_cache_;
 };
 
 FemBody makeFemBody(TetMesh mesh, const MaterialDesc& material);

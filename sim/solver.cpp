@@ -221,7 +221,36 @@ void Solver::predictSolids(double dt) {
   for (ElasticSolid& e : world_.elastics) {
     FemBody& fem = e.fem;
     if (e.implicit) {
-      fem.implicitVelocities(dt, g, fem_force_);
+      FemContacts contacts = elasticContacts(e, dt);
+      // The bodies take the reaction of the contacts in the solve. A body
+      // that moves is pushed back in turn, so its planes are moved on with
+      // its velocity after the reaction and the solid solved again (block
+      // Gauss-Seidel): one staggered pass would let a stiff solid be
+      // squeezed by the body's full approach and then throw it back with
+      // more energy than it came with.
+      bool dynamic = false;
+      for (const auto& cb : contact_bodies_) dynamic |= !world_.bodies[cb.second].fixed;
+      std::vector<RigidState> before;
+      for (const RigidBody& b : world_.bodies) before.push_back(b.state);
+      for (int pass = 0;; ++pass) {
+        fem.implicitVelocities(dt, g, fem_force_, &contacts);
+        for (size_t k = 0; k < world_.bodies.size(); ++k) world_.bodies[k].state = before[k];
+        for (const auto& [plane, body] : contact_bodies_)
+          if (contacts.planes[plane].impulse > 0.0) {
+            // At the surface point, on the normal's line: a sphere's normal
+            // impulse has no moment about its centre.
+            const NodePlane& pl = contacts.planes[plane];
+            world_.bodies[body].applyImpulse(-(pl.impulse * pl.n + pl.friction_impulse),
+                                             contact_surface_[plane]);
+          }
+        if (!dynamic || pass == kContactPasses - 1) break;
+        for (const auto& [plane, body] : contact_bodies_) {
+          NodePlane& pl = contacts.planes[plane];
+          const Vec3d surface = contact_surface_[plane];
+          pl.velocity = world_.bodies[body].velocityAt(surface);
+          pl.b = pl.n.dot(surface + dt * pl.velocity);
+        }
+      }
       fem.v.swap(fem_force_);
     } else {
       fem.forces(fem_force_);
@@ -235,6 +264,49 @@ void Solver::predictSolids(double dt) {
       points_.point_mass.push_back(float(fem.mass[i]));
     }
   }
+}
+
+double Solver::wallFriction() const {
+  const BoundaryDesc& wall = world_.scene.domain.boundary;
+  return wall.type == BoundaryType::Sticky ? 1e30 : wall.friction;
+}
+
+FemContacts Solver::elasticContacts(const ElasticSolid& e, double dt) {
+  const FemBody& fem = e.fem;
+  FemContacts c;
+  c.walls = true;
+  c.lo = contact_.lo;
+  c.hi = contact_.hi;
+  c.wall_friction = wallFriction();
+  // Rigid bodies: a node headed inside one meets the plane of its surface
+  // at the nearest sample, moved on by the body's velocity over the step.
+  contact_bodies_.clear();
+  contact_surface_.clear();
+  for (size_t k = 0; k < world_.bodies.size(); ++k) {
+    const RigidBody& b = world_.bodies[k];
+    const Mat3d R = b.rotation();
+    const double mu = std::sqrt(double(e.friction) * double(b.friction));
+    for (size_t i = 0; i < fem.nodes(); ++i) {
+      const Vec3d y = fem.x[i] + dt * fem.v[i];
+      if ((y - b.state.x).squaredNorm() > double(b.radius) * b.radius) continue;
+      const int q = b.sampleAt(y);
+      if (q < 0) continue;
+      NodePlane& pl = c.planes.emplace_back();
+      pl.node = int(i);
+      pl.n = R * b.n[q].cast<double>();
+      const Vec3d surface = b.state.x + R * b.r[q].cast<double>() - double(b.phi[q]) * pl.n;
+      pl.velocity = b.fixed ? Vec3d::Zero() : b.velocityAt(surface);
+      // A node already inside stays no deeper, rather than being thrown out
+      // with the velocity of its whole penetration (which would add energy):
+      // advanceElastic moves it out, position only.
+      const double depth = std::max(0.0, pl.n.dot(surface - fem.x[i]));
+      pl.b = pl.n.dot(surface + dt * pl.velocity) - depth;
+      pl.friction = mu;
+      contact_bodies_.emplace_back(c.planes.size() - 1, k);
+      contact_surface_.push_back(surface - depth * pl.n);
+    }
+  }
+  return c;
 }
 
 void Solver::scatterSolids() {
@@ -372,9 +444,7 @@ void Solver::advanceElastic(ElasticSolid& e, size_t first, double dt) {
   for (size_t i = 0; i < fem.nodes(); ++i) fem.v[i] += points_.dv[first + i].cast<double>();
   // Walls: a node may close at most its gap in this step (as rigid
   // samples do); the normal velocity it loses bounds its friction.
-  const double mu = world_.scene.domain.boundary.type == BoundaryType::Sticky
-                        ? 1e30
-                        : world_.scene.domain.boundary.friction;
+  const double mu = wallFriction();
   for (size_t i = 0; i < fem.nodes(); ++i) {
     Vec3d& v = fem.v[i];
     for (int d = 0; d < 3; ++d)
@@ -396,8 +466,9 @@ void Solver::advanceElastic(ElasticSolid& e, size_t first, double dt) {
       }
   }
   // Rigid bodies: a node inside one is pushed back to its surface, and the
-  // body takes the momentum.
+  // body takes the momentum. (Implicit solids met them in their solve.)
   for (RigidBody& b : world_.bodies) {
+    if (e.implicit) break;
     const Mat3d R = b.rotation();
     for (size_t i = 0; i < fem.nodes(); ++i) {
       const Vec3d x = fem.x[i] + dt * fem.v[i];
@@ -419,6 +490,22 @@ void Solver::advanceElastic(ElasticSolid& e, size_t first, double dt) {
       msg << "step " << world_.steps + 1 << " at t = " << world_.time << " s: elastic object '"
           << e.name << "' became non-finite at node " << i;
       throw SimulationError(msg.str());
+    }
+  }
+  // Implicit solids: what penetration the contact penalty left (a small
+  // fraction) and what a moving body made after the solve is removed by
+  // moving the node, not by giving it velocity.
+  if (!e.implicit) return;
+  for (const RigidBody& b : world_.bodies) {
+    const Mat3d R = b.rotation();
+    for (size_t i = 0; i < fem.nodes(); ++i) {
+      const Vec3d& x = fem.x[i];
+      if ((x - b.state.x).squaredNorm() > double(b.radius) * b.radius) continue;
+      const int k = b.sampleAt(x);
+      if (k < 0) continue;
+      const Vec3d n = R * b.n[k].cast<double>();
+      const double phi = double(b.phi[k]) + n.dot(x - (b.state.x + R * b.r[k].cast<double>()));
+      if (phi < 0.0) fem.x[i] -= phi * n;
     }
   }
 }

@@ -81,6 +81,9 @@ class Solver {
   void advanceSolids(double dt);
   void pushOutOfSolids();
   void advanceElastic(ElasticSolid& e, size_t first, double dt);
+  // Walls and rigid surfaces an implicit solid's solve keeps its nodes out of.
+  FemContacts elasticContacts(const ElasticSolid& e, double dt);
+  double wallFriction() const;  // Coulomb coefficient of the walls (sticky: huge)
   double solidSpeed() const;
   [[noreturn]] void reportNonFinite() const;
 
@@ -105,6 +108,9 @@ class Solver {
   ContactStats contact_stats_;
   size_t pushed_out_ = 0;
   std::vector<Vec3d> fem_force_;
+  std::vector<std::pair<size_t, size_t>> contact_bodies_;  // (plane, rigid body) of elasticContacts
+  std::vector<Vec3d> contact_surface_;                     // per such plane, the surface point
+  static constexpr int kContactPasses = 3;  // implicit solves per step against moving bodies
   bool shrunk_ = false;  // particles moved out of bodies in the last step
 
   float max_speed_ = 0.0f;
