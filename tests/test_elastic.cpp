@@ -140,16 +140,26 @@ namespace {
 
 // A soft column (nu = 0) standing on a fixed rigid slab shortens under its
 // own weight by rho g H^2 / (2 E). Nothing damps it, so it oscillates about
-// that: the time average over whole periods is the static value.
-TEST(Elastic, ColumnOnSlabSagsByRhoGHSquaredOverTwoE) {
-  const double E = 5e4, H = 0.2, rho = 1000, g = 9.81;
-  json j = test::baseScene("sag", {0.2, 0.4, 0.2}, 0.025);
+// that: the time average over whole periods is the static value. At the
+// default sample spacing (dx/2, 4 elements across), at dx/3 (6 across, a
+// lattice off the grid's cell centres) and at dx (2 across).
+class ColumnOnSlab : public ::testing::TestWithParam<double> {};
+
+TEST_P(ColumnOnSlab, SagsByRhoGHSquaredOverTwoE) {
+  const double E = 5e4, H = 0.2, rho = 1000, g = 9.81, dx = 0.025;
+  const double spacing = GetParam() * dx;
+  json j = test::baseScene("sag", {0.2, 0.4, 0.2}, dx);
   j["materials"]["jelly"] = jelly(E, 0.0);
   j["objects"].push_back({{"name", "slab"}, {"kind", "rigid"}, {"density", 2000}, {"fixed", true},
                           {"shape", box({0, 0, 0}, {0.2, 0.05, 0.2})}});
   j["objects"].push_back(elastic("column", box({0.075, 0.05, 0.075}, {0.125, 0.25, 0.125})));
+  if (GetParam() != 0.5) j["objects"][1]["sample_spacing"] = spacing;
   World w = test::loadWorld(test::tempDir("sag"), j);
   const FemBody& col = w.elastics[0].fem;
+  // Cells of the given side: (0.05 / h)^2 (0.2 / h) of them, six tets each.
+  EXPECT_DOUBLE_EQ(col.mesh.spacing, spacing);
+  EXPECT_EQ(col.mesh.tets.size(), size_t(6 * std::lround(0.05 * 0.05 * 0.2 / std::pow(spacing, 3))));
+  EXPECT_NEAR(col.totalMass(), rho * 0.05 * 0.05 * H, 1e-9);
   std::vector<size_t> top, bottom;
   for (size_t i = 0; i < col.nodes(); ++i) {
     if (std::abs(col.mesh.nodes[i].y() - 0.25) < 1e-6) top.push_back(i);
@@ -171,8 +181,62 @@ TEST(Elastic, ColumnOnSlabSagsByRhoGHSquaredOverTwoE) {
   });
   const double sag = H - sum / time;
   const double expect = rho * g * H * H / (2 * E);  // 3.9 mm
-  std::printf("column sag %.2f mm, expected %.2f mm\n", sag * 1e3, expect * 1e3);
+  std::printf("column sag %.2f mm, expected %.2f mm (spacing %.4g m)\n", sag * 1e3, expect * 1e3,
+              spacing);
   EXPECT_NEAR(sag, expect, 0.1 * expect);
+}
+
+std::string spacingName(const ::testing::TestParamInfo<double>& p) {
+  return p.param == 0.5 ? "HalfCell" : p.param == 1.0 ? "WholeCell" : "ThirdCell";
+}
+
+INSTANTIATE_TEST_SUITE_P(SampleSpacing, ColumnOnSlab, ::testing::Values(0.5, 1.0 / 3.0, 1.0),
+                         spacingName);
+
+// sample_spacing on a sphere (not on any lattice): dx/4 gives about 8
+// times the nodes and elements of the default dx/2, and the same mass
+// within 2%; a rigid object takes the key too. Values outside [dx/8, dx]
+// stop `triad run` with exit status 2, naming the file and the key.
+TEST(Elastic, SampleSpacingSetsTheResolution) {
+  const double dx = 0.025, r = 0.08, rho = 1000;
+  const json ball = {{"sphere", {{"center", {0.1513, 0.1487, 0.1509}}, {"radius", r}}}};
+  auto scene = [&](const json& spacing) {
+    json j = test::baseScene("spacing", {0.3, 0.3, 0.3}, dx);
+    j["frames"]["count"] = 0;
+    j["materials"]["jelly"] = jelly(3e4);
+    j["objects"].push_back(elastic("ball", ball));
+    j["objects"].push_back({{"name", "twin"}, {"kind", "rigid"}, {"density", rho},
+                            {"shape", ball}});
+    if (!spacing.is_null()) j["objects"][0]["sample_spacing"] = j["objects"][1]["sample_spacing"] = spacing;
+    return j;
+  };
+  const auto dir = test::tempDir("spacing");
+  const World coarse = test::loadWorld(dir, scene(nullptr)), fine = test::loadWorld(dir, scene(dx / 4));
+  const FemBody &a = coarse.elastics[0].fem, &b = fine.elastics[0].fem;
+  EXPECT_EQ(a.mesh.spacing, dx / 2);
+  EXPECT_EQ(b.mesh.spacing, dx / 4);
+  const double tets = double(b.mesh.tets.size()) / double(a.mesh.tets.size());
+  const double nodes = double(b.nodes()) / double(a.nodes());
+  EXPECT_NEAR(tets, 8.0, 0.3);
+  EXPECT_GT(nodes, 6.5);  // surface nodes: under 8 at 13 cells across
+  EXPECT_LT(nodes, 8.0);
+  const double m = rho * 4.0 / 3.0 * M_PI * r * r * r;
+  EXPECT_NEAR(b.totalMass(), a.totalMass(), 0.02 * a.totalMass());
+  EXPECT_NEAR(b.totalMass(), m, 0.02 * m);
+  EXPECT_NEAR(fine.bodies[0].mass, m, 0.02 * m);
+  EXPECT_EQ(fine.bodies[0].spacing, float(dx / 4));
+  EXPECT_NEAR(double(fine.object_particles[0]) / double(coarse.object_particles[0]), nodes, 1e-12);
+
+  // Out of range, through the command line: nothing is simulated.
+  for (const json& bad : {json(dx * 1.01), json(dx / 9), json(0), json("fine")}) {
+    const std::string file = test::writeScene(dir, scene(bad));
+    const test::CliResult res = test::runTriad(dir, "run " + file + " --out " +
+                                                        (dir / "out").string() + " --quiet");
+    EXPECT_EQ(res.status, 2) << bad;
+    EXPECT_NE(res.err.find(file + ": objects[0].sample_spacing: expected"), std::string::npos)
+        << res.err;
+    EXPECT_FALSE(std::filesystem::exists(dir / "out" / "bodies")) << bad;
+  }
 }
 
 }  // namespace
