@@ -76,6 +76,16 @@ double boxDistance(const BoxDesc& b, const Vec3d& p, Vec3d* normal) {
   return q[axis];
 }
 
+// The distance field a solid's samples read: the domain's (voxel_ratio dx,
+// shared with MPM objects of the same mesh) unless the samples are finer;
+// then one at the sample spacing, with the samples on its voxel centres.
+std::shared_ptr<const MeshAsset> solidAsset(MeshCache& cache, const MeshDesc& mesh,
+                                            const DomainDesc& domain, double voxel_ratio,
+                                            double h) {
+  if (h >= voxel_ratio * domain.dx) return cache.get(mesh, domain, voxel_ratio);
+  return cache.get(mesh, h, toVec(domain.min) + Vec3d::Constant(0.5 * h));
+}
+
 }  // namespace
 
 std::shared_ptr<const MeshAsset> MeshCache::get(const MeshDesc& mesh, const DomainDesc& domain,
@@ -180,8 +190,8 @@ MeshSampler makeMeshSampler(std::shared_ptr<MeshCache> cache, double voxel_ratio
 }
 
 CollisionSamples sampleCollision(const ShapeDesc& shape, const DomainDesc& domain, double density,
-                                 MeshCache& cache, double voxel_ratio) {
-  const double h = 0.5 * domain.dx;
+                                 MeshCache& cache, double voxel_ratio, double spacing) {
+  const double h = spacing > 0.0 ? spacing : 0.5 * domain.dx;
   const Vec3d dmin = toVec(domain.min), dmax = toVec(domain.max);
   CollisionSamples out;
   out.spacing = h;
@@ -197,7 +207,7 @@ CollisionSamples sampleCollision(const ShapeDesc& shape, const DomainDesc& domai
     lo = toVec(s->center) - Vec3d::Constant(s->radius);
     hi = toVec(s->center) + Vec3d::Constant(s->radius);
   } else {
-    asset = cache.get(std::get<MeshDesc>(shape), domain, voxel_ratio);
+    asset = solidAsset(cache, std::get<MeshDesc>(shape), domain, voxel_ratio, h);
     requireOverlap(*asset, domain);
     lo = asset->volume->boundsMin();
     hi = asset->volume->boundsMax();
@@ -248,12 +258,14 @@ CollisionSamples sampleCollision(const ShapeDesc& shape, const DomainDesc& domai
 }
 
 SolidSampler makeSolidSampler(std::shared_ptr<MeshCache> cache, double voxel_ratio) {
-  return [cache, voxel_ratio](const ShapeDesc& shape, const DomainDesc& domain, double density) {
+  return [cache, voxel_ratio](const ShapeDesc& shape, const DomainDesc& domain, double density,
+                              double spacing) {
     SolidSamples out;
-    out.samples = sampleCollision(shape, domain, density, *cache, voxel_ratio);
+    out.samples = sampleCollision(shape, domain, density, *cache, voxel_ratio, spacing);
     if (const auto* m = std::get_if<MeshDesc>(&shape)) {
       // The same load the samples came from (cached).
-      const TriangleMesh& mesh = cache->get(*m, domain, voxel_ratio)->load.mesh;
+      const TriangleMesh& mesh =
+          solidAsset(*cache, *m, domain, voxel_ratio, out.samples.spacing)->load.mesh;
       for (const Vec3d& p : mesh.positions) out.surface.vertices.push_back(p.cast<float>());
       for (const auto& t : mesh.triangles)
         out.surface.triangles.push_back({uint32_t(t[0]), uint32_t(t[1]), uint32_t(t[2])});

@@ -73,23 +73,27 @@ MeshSampler makeMeshSampler(std::shared_ptr<MeshCache> cache,
                             double voxel_ratio = kDefaultVoxelRatio);
 
 // Collision particles of a rigid or elastic solid of uniform `density`: the
-// points of a lattice of spacing dx/2 aligned with the domain's cells (the
-// same points as particles_per_cell = 8) inside the shape, each with the
+// points domain.min + spacing (n + 1/2) inside the shape (for the default
+// spacing dx/2, the same points as particles_per_cell = 8), each with the
 // outward unit normal of the shape's signed distance field (analytic for
-// boxes and spheres, the mesh's SDF gradient for meshes).
+// boxes and spheres, the mesh's SDF gradient for meshes). A mesh is read
+// through the domain's distance field (voxel_ratio dx), or through one at
+// the spacing when that is finer.
 //
-// Why dx/2: a grid node gets mass from a sample within 1.5 dx (quadratic
-// B-spline support). With samples at most dx/2 apart along each axis, every
-// point of the solid lies within dx/4 * sqrt(3) < dx/2 of a sample, so every
-// node whose support overlaps the solid by more than about half a cell sees
-// it, and thin parts down to about dx/2 thick still get samples.
+// Why dx/2 by default: a grid node gets mass from a sample within 1.5 dx
+// (quadratic B-spline support). With samples at most dx/2 apart along each
+// axis, every point of the solid lies within dx/4 * sqrt(3) < dx/2 of a
+// sample, so every node whose support overlaps the solid by more than about
+// half a cell sees it, and thin parts down to about dx/2 thick still get
+// samples. A scene object's `sample_spacing` (spacing > 0 here; the loader
+// keeps it within [dx/8, dx]) trades that for cost or detail.
 //
 // Samples are not clipped to the domain (a body's mass properties are its
 // own); a shape entirely outside the domain is an InputError (`where` names
 // the mesh file; for primitives it is empty, for the caller to fill in).
 CollisionSamples sampleCollision(const ShapeDesc& shape, const DomainDesc& domain,
                                  double density, MeshCache& cache,
-                                 double voxel_ratio = kDefaultVoxelRatio);
+                                 double voxel_ratio = kDefaultVoxelRatio, double spacing = 0.0);
 
 // The SolidSampler buildWorld takes for rigid (and elastic) objects:
 // sampleCollision plus the shape's surface (the loaded mesh, or

@@ -317,6 +317,8 @@ std::string objectKeyHint(ObjectKind kind, const std::string& key) {
     return "only rigid objects take a density; others get it from their material";
   if (key == "fixed" || key == "angular_velocity") return "only rigid objects take it";
   if (key == "integrator") return "only elastic objects take it";
+  if (key == "sample_spacing" && kind == ObjectKind::Mpm)
+    return "only rigid and elastic objects take it; MPM objects use solver.particles_per_cell";
   if (key == "friction" && kind == ObjectKind::Mpm) {
     return "only rigid and elastic objects take it, for contact with MPM material";
   }
@@ -340,6 +342,24 @@ int resolveMaterial(const ParamDict& d, const std::vector<MaterialDesc>& materia
     if (auto near = closestMatch(name, names)) what += "; did you mean " + inQuotes(*near) + "?";
   }
   d.fail("material", what);
+}
+
+// A solid's collision particle spacing (0 when left out: dx/2). At most
+// dx: then every grid node next to the solid still lies within the B-spline
+// support (1.5 dx) of a sample, so MPM material cannot pass between
+// samples. At least dx/8: 64 times the samples of the default per volume,
+// and an explicit solid's element step 4 times shorter, for detail the
+// grid of the coupling (dx) no longer resolves.
+double parseSampleSpacing(const ParamDict& d, const DomainDesc& domain) {
+  if (!d.has("sample_spacing")) return 0.0;
+  const double s = d.requireDouble("sample_spacing", Range::positive());
+  const double lo = domain.dx / 8, hi = domain.dx;
+  // Relative slack: dx/8 and dx written as decimals must pass.
+  if (s < lo * (1 - 1e-9) || s > hi * (1 + 1e-9))
+    d.fail("sample_spacing", "expected a spacing in [dx/8, dx] = [" + formatNumber(lo) + ", " +
+                                 formatNumber(hi) + "] m (domain.dx = " + formatNumber(domain.dx) +
+                                 "), got " + formatNumber(s));
+  return s;
 }
 
 ObjectDesc parseObject(const ParamDict& d, const std::vector<MaterialDesc>& materials,
@@ -366,6 +386,7 @@ ObjectDesc parseObject(const ParamDict& d, const std::vector<MaterialDesc>& mate
       }
       o.friction = d.getDouble("friction", o.friction, Range::nonNegative());
       o.integrator = d.getEnum("integrator", o.integrator, kIntegrators);
+      o.sample_spacing = parseSampleSpacing(d, domain);
       break;
     }
     case ObjectKind::Rigid:
@@ -373,6 +394,7 @@ ObjectDesc parseObject(const ParamDict& d, const std::vector<MaterialDesc>& mate
       o.fixed = d.getBool("fixed", o.fixed);
       o.angular_velocity = d.getVec3("angular_velocity", o.angular_velocity);
       o.friction = d.getDouble("friction", o.friction, Range::nonNegative());
+      o.sample_spacing = parseSampleSpacing(d, domain);
       break;
   }
   d.checkUnknownKeys("for an object of kind " + inQuotes(nameOf(kKinds, o.kind)),

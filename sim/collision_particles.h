@@ -48,9 +48,10 @@ struct SolidSamples {
 };
 
 // Samples a rigid or elastic solid's shape (box, sphere or mesh) at uniform
-// `density`. Provided by import/ (mesh files); throws InputError.
-using SolidSampler =
-    std::function<SolidSamples(const ShapeDesc& shape, const DomainDesc& domain, double density)>;
+// `density`, on the lattice of `spacing` aligned with the domain's corner.
+// Provided by import/ (mesh files); throws InputError.
+using SolidSampler = std::function<SolidSamples(const ShapeDesc& shape, const DomainDesc& domain,
+                                                double density, double spacing)>;
 
 // Surfaces of the primitive shapes: a box's 12 triangles, a sphere as an
 // icosphere of 1280 triangles (within 0.3% of the radius).

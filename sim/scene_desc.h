@@ -111,6 +111,7 @@ struct ObjectDesc {
   bool fixed = false;                  // rigid only
   double friction = 0.0;               // against MPM material (rigid, elastic)
   ElasticIntegrator integrator = ElasticIntegrator::Explicit;  // elastic only
+  double sample_spacing = 0.0;  // m, collision particle spacing (rigid, elastic); 0: dx / 2
 };
 
 struct OutputDesc {

@@ -1,6 +1,7 @@
 #include "sim/world.h"
 
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <map>
 
@@ -22,17 +23,22 @@ SolidSamples sampleSolid(const SceneDesc& scene, size_t i, const SolidSampler& s
   const ObjectDesc& obj = scene.objects[i];
   if (!sampler)
     throw InputError(objectKey(scene, i), "solid objects need a solid sampler (import/)");
+  // The object's own spacing, or half a cell: 8 samples per cell.
+  const double spacing = obj.sample_spacing > 0.0 ? obj.sample_spacing : 0.5 * scene.domain.dx;
   SolidSamples s;
   try {
-    s = sampler(obj.shape, scene.domain, density);
+    s = sampler(obj.shape, scene.domain, density, spacing);
   } catch (const InputError& e) {
     if (!e.where().empty()) throw;
     throw InputError(objectKey(scene, i) + ".shape", e.what());
   }
-  if (s.samples.size() == 0)
+  if (s.samples.size() == 0) {
+    char h[32];
+    std::snprintf(h, sizeof h, "%g", spacing);
     throw InputError(objectKey(scene, i) + ".shape",
-                     "the shape is thinner than the collision particle spacing dx/2 everywhere: "
-                     "no sample falls inside it");
+                     std::string("the shape is thinner than the collision particle spacing ") + h +
+                         " m everywhere: no sample falls inside it");
+  }
   return s;
 }
 

@@ -1,8 +1,9 @@
 // Rigid body caches end to end through `triad run`: bodies/NAME.FFFF.ply and
 // bodies/rigid_states.csv, read back with a reader written here (not the
 // project's), stale files of earlier runs, `--resume` writing the same bytes
-// as an uninterrupted run, previews and `triad render` drawing the bodies,
-// and object names that cannot name files refused with exit status 2.
+// as an uninterrupted run, previews and `triad render` drawing the bodies
+// (rigid and elastic), and object names that cannot name files refused with
+// exit status 2.
 #include <gtest/gtest.h>
 
 #include <array>
@@ -305,6 +306,58 @@ TEST(BodiesCache, PreviewsDrawTheBodiesAndRenderReadsThemBack) {
   r = test::runTriad(dir, "render " + out.string());
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.err.find("crate.0000.ply"), std::string::npos) << r.err;
+}
+
+// Elastic objects too: their deformed surface is bodies/NAME.FFFF.ply, the
+// run's preview draws it, and `triad render` redraws it from that file.
+TEST(BodiesCache, RenderRedrawsElasticBodiesFromTheirMeshes) {
+  const fs::path dir = test::tempDir("bodies_elastic_render");
+  json j = test::baseScene("elastic_render", {0.6, 0.6, 0.6}, 0.05);
+  j["frames"] = {{"count", 2}, {"fps", kFps}};
+  j["materials"]["jelly"] = {{"model", "fixed_corotated"}, {"density", 1000},
+                             {"youngs_modulus", 5e4}, {"poisson_ratio", 0.3}};
+  j["objects"] = {
+      {{"name", "blob"}, {"kind", "mpm"}, {"material", "jelly"},
+       {"shape", test::box({0.05, 0.0, 0.05}, {0.15, 0.1, 0.15})}},
+      {{"name", "cube"}, {"kind", "elastic"}, {"material", "jelly"},
+       {"shape", test::box({0.2, 0.1, 0.2}, {0.4, 0.3, 0.4})}, {"velocity", {0, -1, 0}}}};
+  j["output"] = {{"vdb", false}, {"png", true}};
+  j["render"] = {{"resolution", {160, 90}},
+                 {"camera", {{"eye", {1.2, 0.8, 1.2}}, {"target", {0.3, 0.2, 0.3}}, {"fov_deg", 40}}}};
+  const fs::path out = dir / "out";
+  test::CliResult r = run(dir, test::writeScene(dir, j), out);
+  ASSERT_EQ(r.status, 0) << r.err;
+
+  // The surface: the box's 8 corners and 12 triangles, moved by frame 2
+  // (falling at 1 m/s and more: over 8 cm down).
+  const Mesh first = readPly(bodyFile(out, "cube", 0)), last = readPly(bodyFile(out, "cube", 2));
+  ASSERT_EQ(first.v.size(), 8u);
+  ASSERT_EQ(first.f.size(), 12u);
+  EXPECT_NEAR(first.lo[1], 0.1, 1e-6);
+  EXPECT_NEAR(first.hi[1], 0.3, 1e-6);
+  ASSERT_EQ(last.v.size(), 8u);
+  EXPECT_LT(last.hi[1], 0.3 - 0.08);
+  EXPECT_GT(last.lo[1], -1e-6);  // not through the floor
+  EXPECT_FALSE(fs::exists(bodyFile(out, "blob", 0)));
+
+  // Re-rendered from the cache: the run's own images, byte for byte.
+  std::vector<std::string> images;
+  for (int f = 0; f <= 2; ++f) {
+    char name[32];
+    std::snprintf(name, sizeof name, "preview.%04d.png", f);
+    images.push_back(slurp(out / "preview" / name));
+    ASSERT_FALSE(images.back().empty()) << name;
+  }
+  const fs::path png = out / "preview" / "preview.0002.png";
+  r = test::runTriad(dir, "render " + out.string());
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_TRUE(slurp(png) == images[2]) << "re-rendered preview differs from the run's";
+  EXPECT_FALSE(images[2] == images[0]) << "the cube did not move in the previews";
+
+  // Without the cube's meshes the picture changes (the blob alone is drawn).
+  for (int f = 0; f <= 2; ++f) fs::remove(bodyFile(out, "cube", f));
+  ASSERT_EQ(test::runTriad(dir, "render " + out.string()).status, 0);
+  EXPECT_FALSE(slurp(png) == images[2]) << "the elastic body was not drawn";
 }
 
 TEST(BodiesCache, ObjectNamesThatCannotNameFilesExitTwo) {

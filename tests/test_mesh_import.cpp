@@ -276,6 +276,46 @@ TEST_F(MeshImport, InertiaOfBoxAndSphereWithinOnePercent) {
   }
 }
 
+// An object's sample_spacing sets the collision lattice: samples at
+// domain.min + h (n + 1/2), eight times as many at half the spacing, the
+// same mass (the sphere's, within 1%) at dx/4, dx/2 and dx; a mesh finer
+// than the domain's distance field gets one of its own, at the spacing.
+TEST_F(MeshImport, SampleSpacingSetsTheCollisionLattice) {
+  MeshCache cache;
+  const DomainDesc dom = domain(0.05);
+  const double rho = 1000, r = 0.25, m = rho * 4.0 / 3.0 * M_PI * r * r * r;
+  const Vec3d c(0.5137, 0.4871, 0.5093);
+  const MeshDesc mesh = desc(write(uvSphere(c, r, 96, 48), "sphere.obj"));
+  for (const bool is_mesh : {false, true}) {
+    std::vector<size_t> counts;
+    for (const double h : {0.0125, 0.025, 0.05}) {
+      const size_t fields = cache.voxelizations();
+      const CollisionSamples s =
+          is_mesh ? sampleCollision(mesh, dom, rho, cache, kDefaultVoxelRatio, h)
+                  : sampleCollision(SphereDesc{{c.x(), c.y(), c.z()}, r}, dom, rho, cache,
+                                    kDefaultVoxelRatio, h);
+      EXPECT_EQ(s.spacing, h);
+      EXPECT_FLOAT_EQ(s.mass_per_sample, float(rho * h * h * h));
+      EXPECT_NEAR(computeMassProperties(s).mass, m, 0.01 * m) << "h = " << h;
+      for (const Vec3f& p : s.x) {
+        const Vec3d n = p.cast<double>() / h - Vec3d::Constant(0.5);
+        ASSERT_LT((n - n.array().round().matrix()).cwiseAbs().maxCoeff(), 1e-3) << h;
+      }
+      // Only the finer-than-dx/2 lattice needs a distance field of its own
+      // (the first mesh query builds the domain's too, for dx/2 and dx).
+      if (is_mesh && h == 0.0125) {
+        EXPECT_EQ(cache.voxelizations(), fields + 1);
+      }
+      if (is_mesh && h == 0.05) {
+        EXPECT_EQ(cache.voxelizations(), fields);
+      }
+      counts.push_back(s.size());
+    }
+    EXPECT_NEAR(double(counts[0]) / double(counts[1]), 8.0, 0.1) << is_mesh;
+    EXPECT_NEAR(double(counts[1]) / double(counts[2]), 8.0, 0.4) << is_mesh;
+  }
+}
+
 TEST_F(MeshImport, NormalsOutwardWithinThreeDegrees) {
   MeshCache cache;
   const DomainDesc dom = domain(0.05);

@@ -473,6 +473,19 @@ TEST_F(SceneLoaderTest, IntegratorOnlyForElasticObjects) {
                        {"objects[2].integrator", "only elastic objects take it"}));
 }
 
+TEST_F(SceneLoaderTest, SampleSpacingForSolidsWithinDxOverEightToDx) {
+  // Left out: 0, the sampler's dx/2. The bounds themselves are allowed.
+  EXPECT_EQ(load(exampleScene()).objects[3].sample_spacing, 0.0);
+  EXPECT_EQ(load(with(exampleScene(), "/objects/3/sample_spacing", 0.01)).objects[3].sample_spacing,
+            0.01);
+  EXPECT_EQ(
+      load(with(exampleScene(), "/objects/2/sample_spacing", 0.00125)).objects[2].sample_spacing,
+      0.00125);
+  // MPM objects are sampled by particles_per_cell.
+  EXPECT_TRUE(contains(error(with(exampleScene(), "/objects/0/sample_spacing", 0.005)),
+                       {"objects[0].sample_spacing", "unknown key", "particles_per_cell"}));
+}
+
 TEST_F(SceneLoaderTest, ObjectNamesMustBeSafeForFiles) {
   // A rigid object's name names its files: bodies/NAME.FFFF.ply.
   for (const char* bad : {"", ".", "..", "my ball", "a/b", "a\\b", "b\xC3\xA4ll", "ball*", "x:y"})
@@ -571,6 +584,13 @@ INSTANTIATE_TEST_SUITE_P(
                  json::array({0.4, 0.0, 0.4}),
                  {"objects[0].shape.box.max", "greater than min"}},
         BadValue{"/objects/1/shape/mesh/scale", 0, {"objects[1].shape.mesh.scale", "positive"}},
+        BadValue{"/objects/3/sample_spacing",
+                 0.011,
+                 {"objects[3].sample_spacing", "in [dx/8, dx] = [0.00125, 0.01]", "got 0.011"}},
+        BadValue{"/objects/2/sample_spacing",
+                 0.001,
+                 {"objects[2].sample_spacing", "[dx/8, dx]", "domain.dx = 0.01", "got 0.001"}},
+        BadValue{"/objects/3/sample_spacing", -0.005, {"objects[3].sample_spacing", "positive"}},
         BadValue{
             "/objects/1/velocity", json::array({1, 0, 0}), {"objects[1].velocity", "fixed object"}},
         BadValue{"/render/resolution",
