@@ -9,7 +9,8 @@ Usage (from the repository root; bench/validation/run.sh wraps it):
       [--cases a,b] [--check-only] [--no-check] [--results DIR]
 
 --quick       a smaller sweep (coarse dx only, no ppc 27), for a smoke test
---check-only  only the pass/fail check of the analytic cases at --quality final
+--check-only  only the presets stage: every case at --quality draft, preview and
+              final; the analytic cases must pass their tolerance at final
 --no-check    the sweep only
 
 Needs Debian's python3 with numpy and matplotlib (apt: python3-numpy,
@@ -122,21 +123,25 @@ def measure_incline(scene, out):
 def measure_archimedes(scene, out):
     fps = scene["frames"]["fps"]
     slab = box_of(scene, "slab")
-    water = box_of(scene, "water")
     rho_s = [o for o in scene["objects"] if o["name"] == "slab"][0]["density"]
     mat = scene["materials"]["water"]
-    rho_w, K = mat["density"], mat["bulk_modulus"]
+    rho_w = mat["density"]
     h = slab["max"][1] - slab["min"][1]
-    B = slab["max"][0] - slab["min"][0]
-    Lx = scene["domain"]["max"][0] - scene["domain"]["min"][0]
-    Hw = water["max"][1] - water["min"][1]
+    area = (slab["max"][0] - slab["min"][0]) * (slab["max"][2] - slab["min"][2])
+    tank = ((scene["domain"]["max"][0] - scene["domain"]["min"][0]) *
+            (scene["domain"]["max"][2] - scene["domain"]["min"][2]))
     rows = [r for r in read_rigid_states(out, "slab") if r["time"] >= 1.0 - 1e-9]
+    # The slab's collision particles span h about its centre of mass.
     bottom = np.mean([r["py"] for r in rows]) - h / 2
-    # Water level from the water's volume, squeezed by its own weight (mean
-    # pressure rho g H / 2 over the bulk modulus), plus the displaced volume
-    # (per unit depth in z: the slab spans the quasi-2D slab of cells).
-    squeeze = 1.0 - rho_w * G * Hw / (2 * K)
-    level = Hw * squeeze + rho_s * B * h / (rho_w * Lx)
+    # Water level: the water's volume (particle volumes times J, averaged over
+    # the same frames) plus the displaced volume (the slab's mass over the
+    # water's density), spread over the tank.
+    k = object_index(scene, "water")
+    v0 = scene["domain"]["dx"] ** 3 / scene["solver"]["particles_per_cell"]
+    vol = np.mean([read_ply(ply_path(out, int(round(r["frame"]))))["J"][
+        read_ply(ply_path(out, int(round(r["frame"]))))["object"] == k].astype(np.float64).sum() * v0
+        for r in rows])
+    level = vol / tank + rho_s * area * h / (rho_w * tank)
     ref = rho_s / rho_w * h
     draft = level - bottom
     vy = max(abs(r["vy"]) for r in rows[-3:])
@@ -265,8 +270,10 @@ CASES = {
                       dx=[2, 1, 0.5, 0.25], quick_dx=[2, 1]),
     "incline": dict(scene="incline.json", measure=measure_incline, analytic=True, tol=0.05,
                     dx=[2, 1, 0.5, 0.25], quick_dx=[2, 1]),
+    # Full 3D: a rigid slab spanning a quasi-2D slab of cells lets water leak
+    # past its z faces along the domain walls (bench/RESULTS.md).
     "archimedes": dict(scene="archimedes.json", measure=measure_archimedes, analytic=True,
-                       tol=0.05, dx=[2, 1, 0.5], quick_dx=[2, 1]),
+                       tol=0.05, dx=[2, 1, 0.5], quick_dx=[2, 1], quasi2d=False),
     "bar": dict(scene="bar.json", measure=measure_bar, analytic=True, tol=0.02,
                 dx=[2, 1, 0.5, 0.25], quick_dx=[2, 1]),
     "granular_collapse": dict(scene="granular_collapse.json", measure=measure_granular,
@@ -298,17 +305,18 @@ def load_scene(case):
         return json.load(f)
 
 
-def apply_variant(scene, var):
-    """The scene with dx scaled, and, being quasi-2D (a slab of cells in z),
+def apply_variant(scene, var, quasi2d=True):
+    """The scene with dx scaled, and, when quasi-2D (a slab of cells in z),
     its z extents scaled with dx so that it stays 4 cells thick."""
     s = copy.deepcopy(scene)
     f = var["dx_factor"]
     s["domain"]["dx"] = scene["domain"]["dx"] * f
-    s["domain"]["max"][2] = scene["domain"]["max"][2] * f
-    for o in s["objects"]:
-        b = o["shape"]["box"]
-        b["min"][2] *= f
-        b["max"][2] *= f
+    if quasi2d:
+        s["domain"]["max"][2] = scene["domain"]["max"][2] * f
+        for o in s["objects"]:
+            b = o["shape"]["box"]
+            b["min"][2] *= f
+            b["max"][2] *= f
     s["solver"]["particles_per_cell"] = var["ppc"]
     s["solver"]["cfl"] = var["cfl"]
     s["solver"]["transfer"] = var["transfer"]
@@ -331,7 +339,7 @@ def run_triad(scene_path, out, threads, extra=()):
     return wall, rec
 
 
-def run_one(case, scene, work, threads, extra=()):
+def run_one(case, scene, work, threads, extra=(), keep=False):
     os.makedirs(work, exist_ok=True)
     path = os.path.join(work, "scene.json")
     with open(path, "w") as f:
@@ -339,7 +347,8 @@ def run_one(case, scene, work, threads, extra=()):
     out = os.path.join(work, "cache")
     wall, rec = run_triad(path, out, threads, extra)
     quantity, measured, ref, err, note = CASES[case]["measure"](scene, out)
-    shutil.rmtree(out)
+    if not keep:
+        shutil.rmtree(out)
     return dict(wall_s=wall, solve_s=rec["wall_seconds"]["phases"].get("solve", 0.0),
                 particles=rec["particles"]["total"], steps=rec["steps"], quantity=quantity,
                 measured=measured, reference=ref, error=err, note=note, run=rec)
@@ -469,42 +478,72 @@ def write_summary(rows, results, info, command, load_before, load_after, elapsed
             lines += ["Notes: " + "; ".join(notes) + ".", ""]
         lines += ["![%s](%s.png)" % (case, case), ""]
     if checks:
-        lines += ["## Analytic cases at `--quality final`", "",
-                  "| case | measured | reference | error | tolerance | wall s | particles | result |",
-                  "|---|---|---|---|---|---|---|---|"]
+        lines += ["## Each case at each `--quality` preset", "",
+                  "The scenes as written (quasi-2D slabs keep their 4 base cells in z, so 8 at "
+                  "`final`). Pass/miss: analytic cases against their tolerance; the experiments "
+                  "against theirs, for information.", "",
+                  "| case | quality | dx | ppc | cfl | transfer | measured | reference | error | tolerance | result | wall s | particles |",
+                  "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
         for c in checks:
-            lines.append("| %s | %.4g | %.4g | %.2f%% | %.0f%% | %.1f | %d | %s |" % (
-                c["case"], c["measured"], c["reference"], 100 * c["error"], 100 * c["tol"],
-                c["wall_s"], c["particles"], "pass" if c["pass"] else "**miss**"))
+            lines.append("| %s | %s | %g | %d | %g | %s | %.4g | %.4g | %.2f%% | %.0f%% | %s | %.1f | %d |" % (
+                c["case"], c["quality"], c["dx"], c["ppc"], c["cfl"], c["transfer"], c["measured"],
+                c["reference"], 100 * c["error"], 100 * c["tol"],
+                "pass" if c["pass"] else "**miss**", c["wall_s"], c["particles"]))
         lines.append("")
     with open(os.path.join(results, "summary.md"), "w") as f:
         f.write("\n".join(lines))
 
 
-def run_checks(cases, work_root, threads, results):
-    """The analytic cases, as written, at --quality final, against their tolerance."""
-    checks = []
+PRESETS = ["draft", "preview", "final"]
+
+
+def run_presets(cases, work_root, threads, results):
+    """Every case, as written, at each --quality preset; the analytic cases at
+    `final` against their tolerance."""
+    rows = []
     for case in cases:
-        if not CASES[case]["analytic"]:
-            continue
-        scene = load_scene(case)
-        r = run_one(case, scene, os.path.join(work_root, case, "final"), threads,
-                    ["--quality", "final"])
-        ok = math.isfinite(r["error"]) and r["error"] <= CASES[case]["tol"]
-        checks.append(dict(case=case, tol=CASES[case]["tol"], measured=r["measured"],
-                           reference=r["reference"], error=r["error"], wall_s=r["wall_s"],
-                           particles=r["particles"], dx=r["run"].get("quality", {}).get("dx"),
-                           **{"pass": ok}))
-        print("check %-12s final: error %.3f%% (tolerance %.0f%%) %s, %.1f s" % (
-            case, 100 * r["error"], 100 * CASES[case]["tol"], "PASS" if ok else "MISS",
-            r["wall_s"]), flush=True)
-    with open(os.path.join(results, "final_check.csv"), "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=["case", "tol", "measured", "reference", "error",
-                                          "wall_s", "particles", "dx", "pass"])
+        for q in PRESETS:
+            scene = load_scene(case)
+            try:
+                r = run_one(case, scene, os.path.join(work_root, case, q), threads, ["--quality", q])
+            except Exception as e:
+                r = dict(wall_s=float("nan"), particles=0, steps=0, measured=float("nan"),
+                         reference=float("nan"), error=float("nan"), note="FAILED: %s" % str(e)[-300:],
+                         run={})
+            qrec = r["run"].get("quality", {})
+            tol = CASES[case]["tol"]
+            ok = math.isfinite(r["error"]) and r["error"] <= tol
+            rows.append(dict(case=case, quality=q, dx=qrec.get("dx", float("nan")),
+                             ppc=qrec.get("particles_per_cell", 0), cfl=qrec.get("cfl", float("nan")),
+                             transfer=qrec.get("transfer", ""), measured=r["measured"],
+                             reference=r["reference"], error=r["error"], tol=tol,
+                             analytic=CASES[case]["analytic"], wall_s=r["wall_s"],
+                             particles=r["particles"], steps=r["steps"], note=r["note"],
+                             **{"pass": ok}))
+            print("%-18s --quality %-8s error %8.3f%% (tolerance %.0f%%) %s %7.1f s %7d particles" % (
+                case, q, 100 * r["error"], 100 * tol, "pass" if ok else "MISS", r["wall_s"],
+                r["particles"]), flush=True)
+    with open(os.path.join(results, "presets.csv"), "w", newline="") as f:
+        fields = ["case", "quality", "dx", "ppc", "cfl", "transfer", "measured", "reference",
+                  "error", "tol", "analytic", "pass", "wall_s", "particles", "steps", "note"]
+        w = csv.DictWriter(f, fieldnames=fields)
         w.writeheader()
-        for c in checks:
-            w.writerow({k: fmt(v) for k, v in c.items()})
-    return checks
+        for c in rows:
+            w.writerow({k: fmt(c[k]) for k in fields})
+    return rows
+
+
+def load_rows(path):
+    rows = []
+    with open(path) as f:
+        for r in csv.DictReader(f):
+            for k in ("dx", "cfl", "measured", "reference", "error", "wall_s", "solve_s"):
+                r[k] = float(r[k]) if r[k] else float("nan")
+            for k in ("ppc", "particles", "steps"):
+                r[k] = int(float(r[k])) if r[k] else 0
+            r["dx_factor"] = float(r["variant"].split("x")[-1]) if r["axis"] == "dx" else 1.0
+            rows.append(r)
+    return rows
 
 
 def main():
@@ -538,7 +577,7 @@ def main():
             for case in cases:
                 base = load_scene(case)
                 for var in variants(case, args.quick):
-                    scene = apply_variant(base, var)
+                    scene = apply_variant(base, var, CASES[case].get("quasi2d", True))
                     tag = var["name"].replace(" ", "_")
                     try:
                         r = run_one(case, scene, os.path.join(args.work, case, tag), args.threads)
@@ -558,16 +597,19 @@ def main():
                         row["note"]), flush=True)
                 plot_case(case, [r for r in rows if r["case"] == case],
                           os.path.join(args.results, case + ".png"))
-    checks = [] if args.no_check else run_checks(cases, args.work, args.threads, args.results)
+    checks = [] if args.no_check else run_presets(cases, args.work, args.threads, args.results)
     elapsed = time.time() - t0
     load_after = uptime()
+    if not rows and os.path.exists(os.path.join(args.results, "runs.csv")):
+        rows = load_rows(os.path.join(args.results, "runs.csv"))
+        load_before = load_before + " (presets stage; the sweep's runs.csv is reused)"
     if rows:
         write_summary(rows, args.results, info, command, load_before, load_after, elapsed, checks)
         with open(os.path.join(args.results, "machine.json"), "w") as f:
             json.dump(dict(info, load_before=load_before, load_after=load_after,
                            elapsed_s=round(elapsed, 1), command=command), f, indent=1)
     print("results in %s (%.0f s)" % (args.results, elapsed))
-    if checks and not all(c["pass"] for c in checks):
+    if any(c["analytic"] and c["quality"] == "final" and not c["pass"] for c in checks):
         print("some analytic cases miss their tolerance at --quality final")
         return 1
     return 0
