@@ -52,10 +52,17 @@ TEST(Quality, PresetsScaleDxAndSetTheSolver) {
   EXPECT_DOUBLE_EQ(d["quality"]["dx"].get<double>(), 0.02 * p.dx_factor);
   EXPECT_GT(d["quality"]["dx"].get<double>(), 0.02);
   EXPECT_EQ(d["quality"]["particles_per_cell"].get<int>(), p.particles_per_cell);
-  EXPECT_LT(d["quality"]["particles_per_cell"].get<int>(), 8);
+  EXPECT_LE(d["quality"]["particles_per_cell"].get<int>(), 8);
   EXPECT_DOUBLE_EQ(d["quality"]["cfl"].get<double>(), p.cfl);
   EXPECT_EQ(d["quality"]["transfer"], transferName(p.transfer));
   EXPECT_LT(d["particles"]["total"].get<int>(), w["particles"]["total"].get<int>() / 4);
+  // Final: a finer grid than as written, more particles.
+  const test::CliResult fin = run(dir, scene, dir / "final", "--quality final");
+  ASSERT_EQ(fin.status, 0) << fin.err;
+  const json f = runJson(dir / "final");
+  EXPECT_EQ(f["quality"]["preset"], "final");
+  EXPECT_DOUBLE_EQ(f["quality"]["dx"].get<double>(), 0.02 * findQualityPreset("final")->dx_factor);
+  EXPECT_GT(f["particles"]["total"].get<int>(), w["particles"]["total"].get<int>());
   EXPECT_TRUE(d["finished"].get<bool>());
 }
 

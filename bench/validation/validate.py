@@ -402,7 +402,12 @@ def convergence_order(rows):
     local = [(y[i + 1] - y[i]) / (x[i + 1] - x[i]) for i in range(len(pts) - 1)]
     errs = [e for _, e in pts]
     monotone = all(errs[i] <= errs[i + 1] for i in range(len(errs) - 1))
-    if not monotone:
+    signs = {math.copysign(1, r["measured"] - r["reference"]) for r in rows
+             if r["axis"] == "dx" and math.isfinite(r["measured"])}
+    if len(signs) > 1:
+        verdict = ("not asymptotic: the error changes sign along the dx series, so the "
+                   "fitted order of |error| means little")
+    elif not monotone:
         verdict = "not asymptotic: the error does not fall monotonically with dx"
     elif len(local) >= 2 and max(local) - min(local) > 0.6:
         verdict = "not clearly asymptotic: local orders %s" % ", ".join("%.2f" % l for l in local)
