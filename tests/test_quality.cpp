@@ -4,6 +4,7 @@
 
 #include "cli_fixture.h"
 #include "import/quality.h"
+#include "sim/errors.h"
 #include "scene_fixture.h"
 
 namespace triad {
