@@ -253,16 +253,45 @@ void removeOtherBodies(const std::string& out_dir, const World& world) {
   }
 }
 
+namespace {
+
+constexpr const char* kQualityTag = "+quality:";
+
+// A checkpoint key's scene hash and quality preset ("" for none).
+std::pair<std::string, std::string> splitCheckpointKey(const std::string& key) {
+  const size_t at = key.find(kQualityTag);
+  if (at == std::string::npos) return {key, ""};
+  return {key.substr(0, at), key.substr(at + std::string(kQualityTag).size())};
+}
+
+std::string qualityLabel(const std::string& q) {
+  return q.empty() ? "no --quality (the scene as written)" : "--quality " + q;
+}
+
+}  // namespace
+
+std::string checkpointKey(const std::string& scene_hash, const std::string& quality) {
+  return quality.empty() ? scene_hash : scene_hash + kQualityTag + quality;
+}
+
 std::optional<ResumePoint> resumeFromCheckpoint(const SceneDesc& scene, const std::string& out_dir,
-                                                const std::string& scene_hash, World& world,
+                                                const std::string& key, World& world,
                                                 Solver& solver) {
+  const auto [scene_hash, quality] = splitCheckpointKey(key);
   for (const auto& [f, path] : listCheckpoints(checkpointDir(out_dir))) {
     try {
       // Read and verify the file; a damaged one is passed over.
       Checkpoint ckpt = readCheckpoint(path);
-      // A checkpoint of another scene file is refused, not passed over.
-      if (ckpt.scene_hash != scene_hash)
-        throw InputError(path, "written for a different scene file (" + ckpt.scene_hash +
+      // A checkpoint of another scene file, or of another quality preset, is
+      // refused, not passed over.
+      const auto [ckpt_hash, ckpt_quality] = splitCheckpointKey(ckpt.scene_hash);
+      if (ckpt_hash == scene_hash && ckpt_quality != quality)
+        throw InputError(path, "written under " + qualityLabel(ckpt_quality) + ", this run asks for " +
+                                   qualityLabel(quality) +
+                                   ": refusing to resume at another resolution. Run with the "
+                                   "checkpoint's quality, or without --resume to start over");
+      if (ckpt_hash != scene_hash)
+        throw InputError(path, "written for a different scene file (" + ckpt_hash +
                                    "; " + scene.source_path + " is now " + scene_hash +
                                    "): refusing to resume. Restore the scene file, or run "
                                    "without --resume to start over");

@@ -68,15 +68,21 @@ struct ResumePoint {
   RigidStateLog states;    // rigid_states.csv rows of frames 0..frame (bodies only)
 };
 
+// What a checkpoint records as its scene: the scene file's hash, and the
+// --quality preset when there is one ("fnv1a64:<hex>+quality:draft"), so
+// that a run never resumes from a checkpoint of another resolution.
+std::string checkpointKey(const std::string& scene_hash, const std::string& quality);
+
 // Restores `world` and `solver` from the newest checkpoint in out_dir that
 // reads back intact, belongs to this scene file, fits the world built from
 // it, and whose frame's cache files are complete (body meshes, and the state
 // table's rows of every frame up to it, included); nullopt (nothing changed)
 // if there is none. Checkpoints passed over are reported on stderr. Throws
 // InputError (exit status 2) when that checkpoint was written for a
-// different scene file.
+// different scene file or under a different --quality (`key` is
+// checkpointKey's).
 std::optional<ResumePoint> resumeFromCheckpoint(const SceneDesc& scene, const std::string& out_dir,
-                                                const std::string& scene_hash, World& world,
+                                                const std::string& key, World& world,
                                                 Solver& solver);
 
 }  // namespace triad

@@ -19,6 +19,10 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 1024));
   run_cmd->add_flag("--quiet", quiet, "No progress display");
   run_cmd->add_flag("--plain", plain, "Plain progress lines even on a terminal");
+  run_cmd->add_option("--quality", run.quality,
+                      "Quality preset: draft (2x dx, fewer particles, larger steps), preview "
+                      "(dx as written), final (dx / 2); sets solver.particles_per_cell, cfl and "
+                      "transfer too. Without it the scene runs as written");
   run_cmd->add_flag("--resume", run.resume,
                     "Continue from the last complete frame's checkpoint in the output directory");
 

@@ -13,6 +13,7 @@
 #include "export/atomic_file.h"
 #include "export/run_record.h"
 #include "import/mesh_sampler.h"
+#include "import/quality.h"
 #include "import/scene_loader.h"
 #include "render/preview_writer.h"
 #include "sim/errors.h"
@@ -43,6 +44,11 @@ std::string runRecordPath(const std::string& out_dir) { return out_dir + "/run.j
 int runScene(const RunOptions& options) {
   const double t_start = omp_get_wtime();
   if (options.threads > 0) omp_set_num_threads(options.threads);
+  if (!options.quality.empty() && !findQualityPreset(options.quality)) {
+    std::fprintf(stderr, "triad: error: --quality: expected one of %s, got \"%s\"\n",
+                 qualityPresetNames().c_str(), options.quality.c_str());
+    return kExitBadInput;
+  }
   RunRecord rec;
   rec.started_utc = utcNow();
   rec.threads = omp_get_max_threads();
@@ -59,6 +65,7 @@ int runScene(const RunOptions& options) {
   };
   try {
     scene = loadScene(options.scene_path);
+    if (!options.quality.empty()) applyQuality(scene, options.quality);
     world = buildSceneWorld(scene, mesh_cache);
     printMeshWarnings();
     out_dir = options.out_dir.empty() ? scene.output.dir : options.out_dir;
@@ -87,6 +94,14 @@ int runScene(const RunOptions& options) {
   rec.scene_name = scene.name;
   rec.scene_path = scene.source_path;
   rec.scene_hash = hashFile(scene.source_path);
+  rec.quality = options.quality;
+  rec.dx = scene.domain.dx;
+  rec.particles_per_cell = scene.solver.particles_per_cell;
+  rec.cfl = scene.solver.cfl;
+  rec.transfer = transferName(scene.solver.transfer);
+  // Checkpoints are tied to the scene file and to the quality preset: a
+  // checkpoint of another resolution cannot continue this run.
+  const std::string checkpoint_key = checkpointKey(rec.scene_hash, options.quality);
   rec.particles = world.particleCount();
   for (size_t i = 0; i < scene.objects.size(); ++i)
     rec.object_particles.emplace_back(scene.objects[i].name, world.object_particles[i]);
@@ -107,7 +122,7 @@ int runScene(const RunOptions& options) {
     removeFramesAfter(out_dir, scene.frames.count);
     removeOtherBodies(out_dir, world);
     if (options.resume) {
-      if (auto rp = resumeFromCheckpoint(scene, out_dir, rec.scene_hash, world, solver)) {
+      if (auto rp = resumeFromCheckpoint(scene, out_dir, checkpoint_key, world, solver)) {
         start_frame = resumed_from = rp->frame;
         before = rp->record;
         states = std::move(rp->states);
@@ -178,7 +193,7 @@ int runScene(const RunOptions& options) {
     if (preview) preview->writeFrame(world, frame);
     // The checkpoint, last: --resume trusts every file of a checkpointed frame.
     if (scene.output.checkpoints)
-      writeFrameCheckpoint(out_dir, frame, rec.scene_hash, world, solver, runSteps());
+      writeFrameCheckpoint(out_dir, frame, checkpoint_key, world, solver, runSteps());
     rec.frames_written = frame + 1;
     output_seconds += omp_get_wtime() - t0;
     record(false, "");

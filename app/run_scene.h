@@ -12,6 +12,7 @@ struct RunOptions {
   int threads = 0;      // 0: OpenMP's default
   ProgressMode progress = ProgressMode::Auto;
   bool resume = false;  // continue from the last complete frame's checkpoint
+  std::string quality;  // --quality preset (import/quality.h); empty: the scene as written
 };
 
 // Exit statuses of the command line contract.

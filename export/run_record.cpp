@@ -23,6 +23,12 @@ void writeRunRecord(const std::string& path, const RunRecord& rec) {
   j["started_utc"] = rec.started_utc;
   j["ended_utc"] = rec.ended_utc;
   j["threads"] = rec.threads;
+  j["quality"] = {{"preset", rec.quality.empty() ? nlohmann::ordered_json(nullptr)
+                                                 : nlohmann::ordered_json(rec.quality)},
+                  {"dx", rec.dx},
+                  {"particles_per_cell", rec.particles_per_cell},
+                  {"cfl", rec.cfl},
+                  {"transfer", rec.transfer}};
   nlohmann::ordered_json per_object = nlohmann::ordered_json::object();
   for (const auto& [name, n] : rec.object_particles) per_object[name] = n;
   j["particles"] = {{"total", rec.particles}, {"per_object", per_object}};

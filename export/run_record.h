@@ -26,6 +26,13 @@ struct RunRecord {
   size_t peak_rss_bytes = 0;
   size_t particle_bytes = 0;
   size_t grid_bytes = 0;
+  // The resolution the run used: --quality's preset ("" when the scene ran
+  // as written) and the grid spacing and solver settings after it.
+  std::string quality;
+  double dx = 0.0;
+  int particles_per_cell = 0;
+  double cfl = 0.0;
+  std::string transfer;
   bool resume = false;           // run with --resume
   int resumed_from_frame = -1;    // the checkpoint's frame; -1: started over
   bool finished = false;

@@ -1,0 +1,121 @@
+// `triad run --quality draft|preview|final` end to end: what each preset
+// records and simulates, bad values, and --resume across presets.
+#include <gtest/gtest.h>
+
+#include "cli_fixture.h"
+#include "import/quality.h"
+#include "sim/errors.h"
+#include "scene_fixture.h"
+
+namespace triad {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+using test::slurp;
+
+// A small water column: a few thousand particles, a few frames in a second.
+json qualityScene(int frames) {
+  json j = test::baseScene("quality", {0.4, 0.4, 0.4}, 0.02);
+  j["frames"] = {{"count", frames}, {"fps", 24}};
+  j["solver"] = {{"particles_per_cell", 8}, {"cfl", 0.4}, {"transfer", "flip"},
+                 {"flip_ratio", 0.9}};
+  j["materials"] = {{"water", {{"model", "water"}, {"density", 1000}, {"bulk_modulus", 1e5}}}};
+  j["objects"] = {{{"name", "column"}, {"kind", "mpm"}, {"material", "water"},
+                   {"shape", test::box({0.0, 0.0, 0.0}, {0.16, 0.2, 0.16})}}};
+  j["output"] = {{"vdb", false}, {"png", false}};
+  return j;
+}
+
+json runJson(const fs::path& out) { return json::parse(slurp(out / "run.json")); }
+
+test::CliResult run(const fs::path& dir, const std::string& scene, const fs::path& out,
+                    const std::string& extra = "") {
+  return test::runTriad(dir, "run " + scene + " --quiet --threads 2 --out " + out.string() + " " +
+                                 extra);
+}
+
+TEST(Quality, PresetsScaleDxAndSetTheSolver) {
+  const fs::path dir = test::tempDir("quality_presets");
+  const std::string scene = test::writeScene(dir, qualityScene(1));
+  ASSERT_EQ(run(dir, scene, dir / "as_written").status, 0);
+  const test::CliResult draft = run(dir, scene, dir / "draft", "--quality draft");
+  ASSERT_EQ(draft.status, 0) << draft.err;
+  const json w = runJson(dir / "as_written"), d = runJson(dir / "draft");
+  // Without the flag: the scene as written, recorded as such.
+  EXPECT_TRUE(w["quality"]["preset"].is_null());
+  EXPECT_DOUBLE_EQ(w["quality"]["dx"].get<double>(), 0.02);
+  EXPECT_EQ(w["quality"]["particles_per_cell"].get<int>(), 8);
+  EXPECT_EQ(w["quality"]["transfer"], "flip");
+  // Draft: the preset's coarser grid and sampling, fewer particles.
+  const QualityPreset p = *findQualityPreset("draft");
+  EXPECT_EQ(d["quality"]["preset"], "draft");
+  EXPECT_DOUBLE_EQ(d["quality"]["dx"].get<double>(), 0.02 * p.dx_factor);
+  EXPECT_GT(d["quality"]["dx"].get<double>(), 0.02);
+  EXPECT_EQ(d["quality"]["particles_per_cell"].get<int>(), p.particles_per_cell);
+  EXPECT_LE(d["quality"]["particles_per_cell"].get<int>(), 8);
+  EXPECT_DOUBLE_EQ(d["quality"]["cfl"].get<double>(), p.cfl);
+  EXPECT_EQ(d["quality"]["transfer"], transferName(p.transfer));
+  EXPECT_LT(d["particles"]["total"].get<int>(), w["particles"]["total"].get<int>() / 4);
+  // Final: a finer grid than as written, more particles.
+  const test::CliResult fin = run(dir, scene, dir / "final", "--quality final");
+  ASSERT_EQ(fin.status, 0) << fin.err;
+  const json f = runJson(dir / "final");
+  EXPECT_EQ(f["quality"]["preset"], "final");
+  EXPECT_DOUBLE_EQ(f["quality"]["dx"].get<double>(), 0.02 * findQualityPreset("final")->dx_factor);
+  EXPECT_GT(f["particles"]["total"].get<int>(), w["particles"]["total"].get<int>());
+  EXPECT_TRUE(d["finished"].get<bool>());
+}
+
+TEST(Quality, DraftKeepsFourCellsAcrossAThinDomain) {
+  // A quasi-2D slab 4 cells thick stays 4 cells thick: dx is capped.
+  SceneDesc s;
+  s.domain.min = {0, 0, 0};
+  s.domain.max = {1.0, 0.5, 0.08};
+  s.domain.dx = 0.02;
+  applyQuality(s, "draft");
+  EXPECT_DOUBLE_EQ(s.domain.dx, 0.02);
+  s.domain.max = {1.0, 0.5, 0.5};
+  s.domain.dx = 0.02;
+  applyQuality(s, "final");
+  EXPECT_DOUBLE_EQ(s.domain.dx, 0.02 * findQualityPreset("final")->dx_factor);
+  EXPECT_THROW(applyQuality(s, "ultra"), InputError);
+}
+
+TEST(Quality, UnknownValueExitsTwoWithAMessage) {
+  const fs::path dir = test::tempDir("quality_unknown");
+  const std::string scene = test::writeScene(dir, qualityScene(1));
+  const test::CliResult r = run(dir, scene, dir / "cache", "--quality ultra");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("--quality"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("draft, preview, final"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("ultra"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "cache")) << "nothing may be written for bad input";
+}
+
+TEST(Quality, ResumeUnderAnotherQualityIsRefused) {
+  const fs::path dir = test::tempDir("quality_resume");
+  const std::string scene = test::writeScene(dir, qualityScene(2));
+  const fs::path out = dir / "cache";
+  ASSERT_EQ(run(dir, scene, out, "--quality draft").status, 0);
+  const std::string frame2 = slurp(out / "particles/particles.0002.ply");
+
+  const test::CliResult other = run(dir, scene, out, "--resume --quality preview");
+  EXPECT_EQ(other.status, 2) << other.err;
+  EXPECT_NE(other.err.find("refusing to resume"), std::string::npos) << other.err;
+  EXPECT_NE(other.err.find("--quality draft"), std::string::npos) << other.err;
+  EXPECT_NE(other.err.find("--quality preview"), std::string::npos) << other.err;
+  const test::CliResult none = run(dir, scene, out, "--resume");
+  EXPECT_EQ(none.status, 2) << none.err;
+  EXPECT_NE(none.err.find("the scene as written"), std::string::npos) << none.err;
+  EXPECT_TRUE(slurp(out / "particles/particles.0002.ply") == frame2) << "a refused resume writes nothing";
+
+  // The same preset resumes.
+  const test::CliResult same = run(dir, scene, out, "--resume --quality draft");
+  EXPECT_EQ(same.status, 0) << same.err;
+  EXPECT_NE(same.err.find("resuming after frame 2"), std::string::npos) << same.err;
+  EXPECT_EQ(runJson(out)["quality"]["preset"], "draft");
+}
+
+}  // namespace
+}  // namespace triad
