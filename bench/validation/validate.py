@@ -346,6 +346,14 @@ def run_one(case, scene, work, threads, extra=(), keep=False):
         json.dump(scene, f, indent=1)
     out = os.path.join(work, "cache")
     wall, rec = run_triad(path, out, threads, extra)
+    # Under --quality the run's dx and particles per cell are the preset's
+    # (run.json records them): measure against those, not the file's.
+    q = rec.get("quality")
+    if isinstance(q, dict) and "dx" in q:
+        scene = copy.deepcopy(scene)
+        scene["domain"]["dx"] = q["dx"]
+        scene["solver"]["particles_per_cell"] = q.get("particles_per_cell",
+                                                      scene["solver"]["particles_per_cell"])
     quantity, measured, ref, err, note = CASES[case]["measure"](scene, out)
     if not keep:
         shutil.rmtree(out)
