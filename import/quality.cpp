@@ -71,6 +71,10 @@ void applyQuality(SceneDesc& scene, const std::string& name) {
     throw InputError("--quality", "\"" + name + "\" would make domain.dx " + number(dx) +
                                       " m, more than " + number(kMaxCells) +
                                       " cells along the domain's longest axis");
+  // Solids sampled at a spacing of their own keep it in proportion to dx,
+  // so that it stays within the loader's [dx/8, dx].
+  for (ObjectDesc& o : scene.objects)
+    if (o.sample_spacing > 0.0) o.sample_spacing *= dx / scene.domain.dx;
   scene.domain.dx = dx;
   scene.solver.particles_per_cell = p->particles_per_cell;
   scene.solver.cfl = p->cfl;

@@ -1,8 +1,9 @@
 #pragma once
 // Quality presets of `triad run --quality draft|preview|final`: one switch
 // that trades accuracy for cost. A preset scales the scene's domain.dx by a
-// factor and sets solver.particles_per_cell, solver.cfl and solver.transfer;
-// everything else stays as the scene writes it. Without a preset the scene
+// factor (and an object's own sample_spacing with it) and sets
+// solver.particles_per_cell, solver.cfl and solver.transfer; everything else
+// stays as the scene writes it. Without a preset the scene
 // runs as written. The numbers come from the validation study of issue 7
 // (bench/validation/, bench/RESULTS.md "Validation: accuracy against cost").
 #include <optional>

@@ -329,6 +329,7 @@ void Solver::pushOutOfSolids() {
   // Particles found inside a body move back to its surface and lose their
   // approach velocity; the body takes that momentum, so nothing is lost.
   const size_t nb = world_.bodies.size();
+  const double dx = world_.scene.domain.dx;
   std::vector<Mat3d> rot;
   std::vector<Vec3d> omega;
   for (const RigidBody& b : world_.bodies) {
@@ -366,9 +367,11 @@ void Solver::pushOutOfSolids() {
           if (v_rel.dot(n) > 0.0) {
             // Moving out through the nearest face: in a part thinner than a
             // few samples it came in through the opposite one (a plate one
-            // cell thick). Send it back there, not through.
+            // cell thick). Send it back there, not through. The search
+            // reaches a cell whatever the body's sample spacing.
             const double h = b.spacing;
-            for (int step = 1; step <= 4; ++step) {
+            const int steps = std::clamp(int(std::ceil(2.0 * std::max(2.0 * h, dx) / h)), 4, 32);
+            for (int step = 1; step <= steps; ++step) {
               const Vec3d back = x - (step * 0.5 * h) * n;
               if (b.sampleAt(back) == -1) {
                 out = back;

@@ -250,23 +250,31 @@ TEST(Coupling, ExtremesStayFinite) {
   }
 }
 
-// Sand poured on a fixed plate one cell thick: none gets through.
-TEST(Coupling, ThinPlateHoldsSand) {
-  json j = test::baseScene("plate", {0.4, 0.5, 0.4}, 0.025);
+// Sand poured on a fixed plate one cell thick: none gets through, whether
+// the plate is sampled at the default dx/2 or finer (dx/6).
+class ThinPlate : public ::testing::TestWithParam<double> {};
+
+TEST_P(ThinPlate, HoldsSand) {
+  const std::string name = "plate_" + std::to_string(int(std::round(0.025 / GetParam())));
+  json j = test::baseScene(name, {0.4, 0.5, 0.4}, 0.025);
   j["materials"]["sand"] = sand();
   // Wall to wall, so that nothing can go around it.
-  j["objects"].push_back(fixedRigid("plate", box({0, 0.2, 0}, {0.4, 0.225, 0.4}), 0.5));
+  json plate = fixedRigid("plate", box({0, 0.2, 0}, {0.4, 0.225, 0.4}), 0.5);
+  plate["sample_spacing"] = GetParam();
+  j["objects"].push_back(plate);
   j["objects"].push_back(mpm("sand", "sand", box({0.15, 0.3, 0.15}, {0.25, 0.4, 0.25}), {0, -3, 0}));
-  World w = test::loadWorld(test::tempDir("plate"), j);
+  World w = test::loadWorld(test::tempDir(name), j);
   Solver solver(w);
   solver.advanceTo(0.5);
   size_t below = 0;
   for (const ParticleSet& s : w.sets)
     for (size_t i = 0; i < s.size(); ++i)
       if (s.x[i].y() < 0.2) ++below;
-  EXPECT_EQ(below, 0u);
+  EXPECT_EQ(below, 0u) << "spacing " << GetParam();
   EXPECT_GT(test::moments(w).centre.y(), 0.225);
 }
+
+INSTANTIATE_TEST_SUITE_P(SampleSpacings, ThinPlate, ::testing::Values(0.0125, 0.025 / 6));
 
 }  // namespace
 }  // namespace triad

@@ -82,6 +82,19 @@ TEST(Quality, DraftKeepsFourCellsAcrossAThinDomain) {
   EXPECT_THROW(applyQuality(s, "ultra"), InputError);
 }
 
+TEST(Quality, ObjectSampleSpacingFollowsDx) {
+  // A solid given its own spacing keeps it in proportion: at dx (the
+  // loader's coarsest) as written, still at dx under final, not 2 dx.
+  SceneDesc s;
+  s.domain.max = {1.0, 1.0, 1.0};
+  s.domain.dx = 0.02;
+  s.objects.resize(2);
+  s.objects[0].sample_spacing = 0.02;
+  applyQuality(s, "final");
+  EXPECT_DOUBLE_EQ(s.objects[0].sample_spacing, s.domain.dx);
+  EXPECT_EQ(s.objects[1].sample_spacing, 0.0);  // the default stays dx/2
+}
+
 TEST(Quality, UnknownValueExitsTwoWithAMessage) {
   const fs::path dir = test::tempDir("quality_unknown");
   const std::string scene = test::writeScene(dir, qualityScene(1));
