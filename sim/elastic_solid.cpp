@@ -4,6 +4,25 @@
 
 namespace triad {
 
+namespace {
+
+int64_t cellKey(const Eigen::Vector3i& c) {
+  constexpr int64_t kBias = 1 << 20;
+  return ((int64_t(c.x()) + kBias) << 42) | ((int64_t(c.y()) + kBias) << 21) |
+         (int64_t(c.z()) + kBias);
+}
+
+}  // namespace
+
+Eigen::Vector3i ElasticSolid::cellIndex(const Vec3d& rest) const {
+  const TetMesh& m = fem.mesh;
+  return ((rest - m.cells[0]) / m.spacing).array().round().cast<int>();
+}
+
+bool ElasticSolid::hasCell(const Eigen::Vector3i& ijk) const {
+  return cell_keys.count(cellKey(ijk)) > 0;
+}
+
 Vec3d ElasticSolid::normal(size_t i) const {
   const auto& n = fem.mesh.tets[size_t(node_tet[i])];
   Mat3d D;
@@ -50,6 +69,7 @@ ElasticSolid makeElasticSolid(int object, const std::string& name, const Collisi
     const double len = n.norm();
     n = len > 0 ? Vec3d(n / len) : Vec3d(0, 1, 0);
   }
+  for (const Vec3d& c : m.cells) e.cell_keys.insert(cellKey(e.cellIndex(c)));
   std::vector<Vec3d> verts;
   for (const Vec3f& v : surface.vertices) verts.push_back(v.cast<double>());
   e.embedding = embed(m, verts);

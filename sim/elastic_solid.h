@@ -2,7 +2,9 @@
 // Volumetric elastic solids (issue 5): a voxel tetrahedral mesh whose nodes
 // are the solid's collision particles (coupling.md), finite-element forces,
 // and the imported surface embedded in the mesh for caches and previews.
+#include <cstdint>
 #include <string>
+#include <unordered_set>
 #include <vector>
 
 #include "sim/collision_particles.h"
@@ -21,6 +23,12 @@ struct ElasticSolid {
   // one element it belongs to, whose deformation turns the normal.
   std::vector<Vec3d> normal0;
   std::vector<int> node_tet;
+  // The voxel cells at rest by lattice coordinates (mesh.cells[c] =
+  // cells[0] + spacing * ijk): where the solid's boundary is, for contact
+  // with other elastic solids (sim/elastic_contact.h).
+  std::unordered_set<int64_t> cell_keys;
+  Eigen::Vector3i cellIndex(const Vec3d& rest) const;
+  bool hasCell(const Eigen::Vector3i& ijk) const;
   TriSurface surface;                 // at rest, world space
   std::vector<Embedding> embedding;   // per surface vertex
 

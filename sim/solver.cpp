@@ -7,6 +7,7 @@
 #include <limits>
 #include <sstream>
 
+#include "sim/elastic_contact.h"
 #include "sim/errors.h"
 
 namespace triad {
@@ -300,7 +301,7 @@ FemContacts Solver::elasticContacts(const ElasticSolid& e, double dt) {
       pl.velocity = b.fixed ? Vec3d::Zero() : b.velocityAt(surface);
       // A node already inside stays no deeper, rather than being thrown out
       // with the velocity of its whole penetration (which would add energy):
-      // advanceElastic moves it out, position only.
+      // moveElastic moves it out, position only.
       const double depth = std::max(0.0, pl.n.dot(surface - fem.x[i]));
       pl.b = pl.n.dot(surface + dt * pl.velocity) - depth;
       pl.friction = mu;
@@ -440,10 +441,12 @@ void Solver::advanceSolids(double dt) {
     }
   }
   for (size_t k = 0; k < world_.elastics.size(); ++k)
-    advanceElastic(world_.elastics[k], points_.begin[world_.bodies.size() + k], dt);
+    constrainElastic(world_.elastics[k], points_.begin[world_.bodies.size() + k], dt);
+  if (world_.elastics.size() > 1) resolveElasticContacts(world_.elastics, dt);
+  for (ElasticSolid& e : world_.elastics) moveElastic(e, dt);
 }
 
-void Solver::advanceElastic(ElasticSolid& e, size_t first, double dt) {
+void Solver::constrainElastic(ElasticSolid& e, size_t first, double dt) {
   FemBody& fem = e.fem;
   // Node velocities take what the grid gave them (step 8).
   for (size_t i = 0; i < fem.nodes(); ++i) fem.v[i] += points_.dv[first + i].cast<double>();
@@ -488,6 +491,10 @@ void Solver::advanceElastic(ElasticSolid& e, size_t first, double dt) {
       b.applyImpulse(-fem.mass[i] * dv, x);
     }
   }
+}
+
+void Solver::moveElastic(ElasticSolid& e, double dt) {
+  FemBody& fem = e.fem;
   for (size_t i = 0; i < fem.nodes(); ++i) {
     fem.x[i] += dt * fem.v[i];
     if (!std::isfinite(fem.x[i].sum() + fem.v[i].sum())) {

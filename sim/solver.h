@@ -80,7 +80,10 @@ class Solver {
   void collideSolids();
   void advanceSolids(double dt);
   void pushOutOfSolids();
-  void advanceElastic(ElasticSolid& e, size_t first, double dt);
+  // Elastic nodes after the grid: velocities constrained by the walls and
+  // rigid bodies (then by each other), then moved.
+  void constrainElastic(ElasticSolid& e, size_t first, double dt);
+  void moveElastic(ElasticSolid& e, double dt);
   // Walls and rigid surfaces an implicit solid's solve keeps its nodes out of.
   FemContacts elasticContacts(const ElasticSolid& e, double dt);
   double wallFriction() const;  // Coulomb coefficient of the walls (sticky: huge)

@@ -1,0 +1,31 @@
+#pragma once
+// Contact between elastic solids (issue 5): a node of one solid that would
+// end the step inside another's deformed tetrahedra is stopped at that
+// solid's boundary. The node's barycentric position in the containing
+// tetrahedron maps it to a rest point; the nearest face of the other
+// solid's voxels along the axes gives the depth and the rest normal (the
+// voxels are the solid: its tetrahedra fill them), and the element's
+// deformation turns them (F^-T N). A cell's own sample normal would not do:
+// at edges and corners it points to whichever face was nearest the cell's
+// centre, not the point's. The impulse stops the approach and removes the
+// rest of the penetration at most a tenth of a sample spacing per step; it
+// is shared between the node and the tetrahedron's four nodes by mass and
+// barycentric weight, so momentum is kept, with Coulomb friction at the
+// pair's geometric-mean coefficient.
+#include <cstddef>
+#include <vector>
+
+#include "sim/elastic_solid.h"
+
+namespace triad {
+
+struct ElasticContactStats {
+  size_t contacts = 0;  // nodes stopped at another solid's surface this step
+};
+
+// Changes the velocities of the solids' nodes (positions x + dt v at the
+// end of the step) so that none ends inside another solid. Every ordered
+// pair is visited once, in order: the result does not depend on threads.
+ElasticContactStats resolveElasticContacts(std::vector<ElasticSolid>& solids, double dt);
+
+}  // namespace triad
