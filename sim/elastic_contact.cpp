@@ -63,9 +63,16 @@ std::array<double, 4> barycentric(const std::vector<Vec3d>& y, const std::array<
 
 constexpr double kPushOut = 0.2;  // share of a penetration undone per step
 
+// A face of b's voxels at rest: the cell inside it, the axis and the side
+// (+1 or -1) the face looks to.
+struct Face {
+  Eigen::Vector3i cell;
+  int axis = 0, side = 1;
+};
+
 // Distance from a rest point inside b's voxels to their boundary, along the
-// axes, and the outward normal of that boundary face.
-double restDepth(const ElasticSolid& b, const Vec3d& rest, Vec3d& normal) {
+// axes, and the boundary face reached.
+double restDepth(const ElasticSolid& b, const Vec3d& rest, Face& face) {
   constexpr int kMaxWalk = 64;
   const double h = b.fem.mesh.spacing;
   const Eigen::Vector3i c = b.cellIndex(rest);
@@ -75,21 +82,49 @@ double restDepth(const ElasticSolid& b, const Vec3d& rest, Vec3d& normal) {
     for (int s = -1; s <= 1; s += 2) {
       int k = 1;
       while (k < kMaxWalk && b.hasCell(c + s * k * Eigen::Vector3i::Unit(d))) ++k;
-      const double face = centre[d] + s * (0.5 * h + (k - 1) * h);
-      const double dist = s * (face - rest[d]);
+      const double dist = s * (centre[d] + s * (0.5 * h + (k - 1) * h) - rest[d]);
       if (dist < best) {
         best = dist;
-        normal = s * Vec3d::Unit(d);
+        face = {c + s * (k - 1) * Eigen::Vector3i::Unit(d), d, s};
       }
     }
   return best;
 }
 
+// The face deformed: the plane through its four corner nodes (centroid and
+// outward unit normal), from the positions y. False when a corner is not a
+// node of the mesh (it always is for a face of b's voxels).
+bool deformedFace(const ElasticSolid& b, const std::vector<Vec3d>& y, const Face& f,
+                  Vec3d& centroid, Vec3d& normal) {
+  const int u = (f.axis + 1) % 3, v = (f.axis + 2) % 3;
+  // Corners in order around the face, as offsets (0 or 1) of the cell's
+  // lowest corner.
+  const int ring[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+  Vec3d p[4];
+  for (int k = 0; k < 4; ++k) {
+    Eigen::Vector3i corner = f.cell;
+    corner[f.axis] += f.side > 0 ? 1 : 0;
+    corner[u] += ring[k][0];
+    corner[v] += ring[k][1];
+    const int node = b.nodeAt(corner);
+    if (node < 0) return false;
+    p[k] = y[size_t(node)];
+  }
+  centroid = 0.25 * (p[0] + p[1] + p[2] + p[3]);
+  // (u, v, axis) is right-handed: the diagonals' cross product looks along
+  // +axis; flip it for the -axis side.
+  const Vec3d m = f.side * (p[2] - p[0]).cross(p[3] - p[1]);
+  const double len = m.norm();
+  if (!(len > 0.0) || !std::isfinite(len)) return false;
+  normal = m / len;
+  return true;
+}
+
 // Where the segment from a rest point inside b's voxels to rest + back
-// leaves them: the distance along it (exact at the crossed face) and the
-// outward normal of that face; -1 when the whole segment is inside (the
-// point was inside already at the start of the step).
-double entryDepth(const ElasticSolid& b, const Vec3d& rest, const Vec3d& back, Vec3d& normal) {
+// leaves them: the distance along it and the face it leaves through; -1
+// when the whole segment is inside (the point was inside already at the
+// start of the step).
+double entryDepth(const ElasticSolid& b, const Vec3d& rest, const Vec3d& back, Face& face) {
   const double len = back.norm();
   if (!(len > 0.0) || !std::isfinite(len)) return -1.0;
   const Vec3d dir = back / len;
@@ -99,17 +134,13 @@ double entryDepth(const ElasticSolid& b, const Vec3d& rest, const Vec3d& back, V
   for (int k = 1; k <= steps; ++k) {
     const Eigen::Vector3i next = b.cellIndex(rest + (len * k / steps) * dir);
     if (!b.hasCell(next)) {
-      // The axis along which the walk stepped out (the largest change),
-      // and the exact distance to that cell face.
+      // The axis along which the walk stepped out (the largest change).
       const Eigen::Vector3i jump = next - c;
       int d = 0;
       for (int a = 1; a < 3; ++a)
         if (std::abs(jump[a]) > std::abs(jump[d])) d = a;
-      const double s = jump[d] > 0 ? 1.0 : -1.0;
-      normal = s * Vec3d::Unit(d);
-      const double face = b.fem.mesh.cells[0][d] + h * c[d] + s * 0.5 * h;
-      const double along = std::abs(dir[d]) > 1e-12 ? (face - rest[d]) / dir[d] : len;
-      return std::clamp(along, 0.0, len);
+      face = {c, d, jump[d] > 0 ? 1 : -1};
+      return len * k / steps;
     }
     c = next;
   }
@@ -153,26 +184,21 @@ size_t pushOut(ElasticSolid& a, ElasticSolid& b, double dt) {
       Mat3d D;
       for (int k = 0; k < 3; ++k) D.col(k) = yb[size_t(n[k + 1])] - yb[size_t(n[0])];
       const Mat3d F = D * fb.dm_inv[size_t(t)];
-      Vec3d rest_normal;
-      double depth = -restDepth(b, rest, rest_normal);
-      if (depth >= 0.0) break;
-      // A node that entered b in this step came in through the face it
-      // crossed, which at an edge need not be the nearest one (a node
-      // entering a face right at its edge is nearest to the side face):
-      // walk back along its motion relative to b over the step, in rest
-      // space, and use the face it crosses there.
+      // The boundary face of b the node is pushed out through: the one it
+      // crossed in this step (walking back along its motion relative to b,
+      // in rest space), which at an edge need not be the nearest one, else
+      // the nearest one. Depth and normal are those of the face deformed
+      // (the plane of its four nodes), so that the split of the voxels
+      // into tetrahedra does not tilt them.
+      Face face;
+      if (restDepth(b, rest, face) <= 0.0) break;
       const Vec3d rel = fa.v[i] - vb;
-      const Vec3d back = -dt * (F.inverse() * rel);
-      Vec3d entry_normal;
-      const double entry = entryDepth(b, rest, back, entry_normal);
-      if (entry >= 0.0) {
-        depth = -entry;
-        rest_normal = entry_normal;
-      }
-      const Vec3d m = F.inverse().transpose() * rest_normal;
-      const double len = m.norm();
-      if (!(len > 0.0) || !std::isfinite(len)) break;
-      const Vec3d normal = m / len;
+      Face entry;
+      if (entryDepth(b, rest, -dt * (F.inverse() * rel), entry) >= 0.0) face = entry;
+      Vec3d centroid, normal;
+      if (!deformedFace(b, yb, face, centroid, normal)) break;
+      const double depth = normal.dot(ya[i] - centroid);
+      if (depth >= 0.0) break;
       // Separate the node and b's material point under it by the depth
       // within the step: the impulse over the pair's reduced mass.
       double inv_b = 0.0;
@@ -182,7 +208,7 @@ size_t pushOut(ElasticSolid& a, ElasticSolid& b, double dt) {
       // a fifth of the penetration per step beyond it, so that a node found
       // deep inside is eased out rather than thrown.
       const double approach = std::max(0.0, -normal.dot(fa.v[i] - vb));
-      const double dvn = std::min(-depth / len / dt, approach + kPushOut * -depth / len / dt);
+      const double dvn = std::min(-depth / dt, approach + kPushOut * -depth / dt);
       Vec3d impulse = (dvn / inv_pair) * normal;
       // Coulomb friction on the relative sliding, bounded by that impulse.
       Vec3d vt = fa.v[i] - vb;

@@ -23,6 +23,11 @@ bool ElasticSolid::hasCell(const Eigen::Vector3i& ijk) const {
   return cell_keys.count(cellKey(ijk)) > 0;
 }
 
+int ElasticSolid::nodeAt(const Eigen::Vector3i& ijk) const {
+  const auto it = node_keys.find(cellKey(ijk));
+  return it == node_keys.end() ? -1 : it->second;
+}
+
 Vec3d ElasticSolid::normal(size_t i) const {
   const auto& n = fem.mesh.tets[size_t(node_tet[i])];
   Mat3d D;
@@ -70,6 +75,9 @@ ElasticSolid makeElasticSolid(int object, const std::string& name, const Collisi
     n = len > 0 ? Vec3d(n / len) : Vec3d(0, 1, 0);
   }
   for (const Vec3d& c : m.cells) e.cell_keys.insert(cellKey(e.cellIndex(c)));
+  // A corner's lattice index is that of the cell whose lowest corner it is.
+  for (size_t i = 0; i < m.nodes.size(); ++i)
+    e.node_keys[cellKey(e.cellIndex(m.nodes[i] + Vec3d::Constant(0.5 * m.spacing)))] = int(i);
   std::vector<Vec3d> verts;
   for (const Vec3f& v : surface.vertices) verts.push_back(v.cast<double>());
   e.embedding = embed(m, verts);

@@ -4,6 +4,7 @@
 // and the imported surface embedded in the mesh for caches and previews.
 #include <cstdint>
 #include <string>
+#include <unordered_map>
 #include <unordered_set>
 #include <vector>
 
@@ -27,8 +28,12 @@ struct ElasticSolid {
   // cells[0] + spacing * ijk): where the solid's boundary is, for contact
   // with other elastic solids (sim/elastic_contact.h).
   std::unordered_set<int64_t> cell_keys;
+  std::unordered_map<int64_t, int> node_keys;  // corner lattice -> node
   Eigen::Vector3i cellIndex(const Vec3d& rest) const;
   bool hasCell(const Eigen::Vector3i& ijk) const;
+  // The node at the lowest corner of cell ijk (so corners of cell c are
+  // nodeAt(c + {0,1}^3)), or -1.
+  int nodeAt(const Eigen::Vector3i& ijk) const;
   TriSurface surface;                 // at rest, world space
   std::vector<Embedding> embedding;   // per surface vertex
 
