@@ -5,6 +5,8 @@
 #include <cstdint>
 #include <unordered_map>
 
+#include "sim/particles.h"
+
 namespace triad {
 
 namespace {
@@ -225,6 +227,60 @@ size_t pushOut(ElasticSolid& a, ElasticSolid& b, double dt) {
 }
 
 }  // namespace
+
+size_t pushParticlesOut(ElasticSolid& b, std::vector<ParticleSet>& sets, double dt) {
+  FemBody& fb = b.fem;
+  std::vector<Vec3d> yb(fb.nodes());
+  Box bb;
+  for (size_t i = 0; i < fb.nodes(); ++i) bb.add(yb[i] = fb.x[i] + dt * fb.v[i]);
+  const TetBins bins(yb, fb.mesh);
+  size_t moved = 0;
+  for (ParticleSet& set : sets) {
+    const double mp = double(set.mass);
+    for (size_t p = 0; p < set.size(); ++p) {
+      const Vec3d x = set.x[p].cast<double>();
+      if (!bb.contains(x)) continue;
+      const std::vector<int>* candidates = bins.at(x);
+      if (!candidates) continue;
+      for (int t : *candidates) {
+        const auto& n = fb.mesh.tets[size_t(t)];
+        const std::array<double, 4> w = barycentric(yb, n, x);
+        if (*std::min_element(w.begin(), w.end()) < -1e-9) continue;
+        Vec3d rest = Vec3d::Zero(), vb = Vec3d::Zero();
+        for (int k = 0; k < 4; ++k) {
+          rest += w[size_t(k)] * fb.mesh.nodes[size_t(n[k])];
+          vb += w[size_t(k)] * fb.v[size_t(n[k])];
+        }
+        Mat3d D;
+        for (int k = 0; k < 3; ++k) D.col(k) = yb[size_t(n[k + 1])] - yb[size_t(n[0])];
+        const Mat3d F = D * fb.dm_inv[size_t(t)];
+        // Out through the face it came in by, else the nearest (as nodes).
+        Face face;
+        if (restDepth(b, rest, face) <= 0.0) break;
+        const Vec3d v = set.v[p].cast<double>();
+        Face entry;
+        if (entryDepth(b, rest, -dt * (F.inverse() * (v - vb)), entry) >= 0.0) face = entry;
+        Vec3d centroid, normal;
+        if (!deformedFace(b, yb, face, centroid, normal)) break;
+        const double depth = normal.dot(x - centroid);
+        if (depth >= 0.0) break;
+        // Onto the face; the approach velocity goes to the solid's nodes
+        // under the particle, by barycentric weight.
+        set.x[p] = (x - depth * normal).cast<float>();
+        const double vn = normal.dot(v - vb);
+        if (vn < 0.0) {
+          set.v[p] = (v - vn * normal).cast<float>();
+          for (int k = 0; k < 4; ++k)
+            if (!fb.pinned[size_t(n[k])])
+              fb.v[size_t(n[k])] += (w[size_t(k)] * mp * vn / fb.mass[size_t(n[k])]) * normal;
+        }
+        ++moved;
+        break;
+      }
+    }
+  }
+  return moved;
+}
 
 ElasticContactStats resolveElasticContacts(std::vector<ElasticSolid>& solids, double dt) {
   ElasticContactStats s;

@@ -28,4 +28,11 @@ struct ElasticContactStats {
 // pair is visited once, in order: the result does not depend on threads.
 ElasticContactStats resolveElasticContacts(std::vector<ElasticSolid>& solids, double dt);
 
+// MPM particles (positions at the end of the step) found inside the
+// solid's mesh at the end of the step are moved onto its boundary, through
+// the face they came in by (else the nearest), and lose their approach
+// velocity, which the solid's nodes under them take. Returns how many moved.
+struct ParticleSet;
+size_t pushParticlesOut(ElasticSolid& solid, std::vector<ParticleSet>& sets, double dt);
+
 }  // namespace triad

@@ -113,7 +113,7 @@ void Solver::step(double dt) {
     updateGrid(fdt);                // step 5
     if (solids) collideSolids();    // step 6
     gridToParticles(fdt);           // step 7
-    if (solids) pushOutOfSolids();  // no particle stays inside a body
+    if (solids) pushOutOfSolids(dt);  // no particle stays inside a body
   }
   if (solids) advanceSolids(dt);    // step 8, then contacts and rigid motion
 
@@ -323,7 +323,7 @@ void Solver::collideSolids() {
   coupling_->collide(grid_, points_, params_);
 }
 
-void Solver::pushOutOfSolids() {
+void Solver::pushOutOfSolids(double dt) {
   PhaseTimer timer(times_.solids);
   // The grid collision stops material approaching a body at shared nodes,
   // but interpolation lets particles at the surface creep in, slowly.
@@ -403,6 +403,8 @@ void Solver::pushOutOfSolids() {
         b.state.L += acc.l;
       }
   }
+  // Elastic solids: particles inside their deformed meshes.
+  for (ElasticSolid& e : world_.elastics) moved += pushParticlesOut(e, world_.sets, dt);
   pushed_out_ = moved;
 }
 

@@ -79,7 +79,7 @@ class Solver {
   void scatterSolids();
   void collideSolids();
   void advanceSolids(double dt);
-  void pushOutOfSolids();
+  void pushOutOfSolids(double dt);
   // Elastic nodes after the grid: velocities constrained by the walls and
   // rigid bodies (then by each other), then moved.
   void constrainElastic(ElasticSolid& e, size_t first, double dt);
