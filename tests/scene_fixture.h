@@ -1,6 +1,8 @@
 #pragma once
 // Helpers for tests that build scenes: write JSON into a temporary folder,
 // load it through the real scene loader, and measure particle state.
+#include <gtest/gtest.h>
+
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -12,8 +14,16 @@
 
 namespace triad::test {
 
+// A fresh folder for `name`, under one of the running test's own: ctest runs
+// tests (each parameter of one too) in parallel processes, which must not
+// share a folder whatever names they pick.
 inline std::filesystem::path tempDir(const std::string& name) {
-  const auto dir = std::filesystem::temp_directory_path() / "triad_tests" / name;
+  std::string test = "none";
+  if (const auto* info = ::testing::UnitTest::GetInstance()->current_test_info())
+    test = std::string(info->test_suite_name()) + "." + info->name();
+  for (char& c : test)
+    if (c == '/') c = '_';
+  const auto dir = std::filesystem::temp_directory_path() / "triad_tests" / test / name;
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   return dir;
