@@ -5,7 +5,9 @@
 #include <cstdint>
 #include <unordered_map>
 
+#include "sim/fem.h"
 #include "sim/particles.h"
+#include "sim/sparse_grid.h"
 
 namespace triad {
 
@@ -33,11 +35,11 @@ class TetBins {
       const Eigen::Vector3i lo = cell(b.lo), hi = cell(b.hi);
       for (int i = lo.x(); i <= hi.x(); ++i)
         for (int j = lo.y(); j <= hi.y(); ++j)
-          for (int k = lo.z(); k <= hi.z(); ++k) bins_[key({i, j, k})].push_back(int(t));
+          for (int k = lo.z(); k <= hi.z(); ++k) bins_[packBlock({i, j, k})].push_back(int(t));
     }
   }
   const std::vector<int>* at(const Vec3d& p) const {
-    const auto it = bins_.find(key(cell(p)));
+    const auto it = bins_.find(packBlock(cell(p)));
     return it == bins_.end() ? nullptr : &it->second;
   }
 
@@ -45,23 +47,9 @@ class TetBins {
   Eigen::Vector3i cell(const Vec3d& p) const {
     return (p / h_).array().floor().cast<int>();
   }
-  static int64_t key(const Eigen::Vector3i& c) {
-    constexpr int64_t kBias = 1 << 20;
-    return ((int64_t(c.x()) + kBias) << 42) | ((int64_t(c.y()) + kBias) << 21) |
-           (int64_t(c.z()) + kBias);
-  }
   double h_;
-  std::unordered_map<int64_t, std::vector<int>> bins_;
+  std::unordered_map<uint64_t, std::vector<int>> bins_;
 };
-
-// Barycentric weights of p in the tetrahedron n of positions y.
-std::array<double, 4> barycentric(const std::vector<Vec3d>& y, const std::array<int, 4>& n,
-                                  const Vec3d& p) {
-  Mat3d D;
-  for (int k = 0; k < 3; ++k) D.col(k) = y[size_t(n[k + 1])] - y[size_t(n[0])];
-  const Vec3d w = D.inverse() * (p - y[size_t(n[0])]);
-  return {1.0 - w.sum(), w.x(), w.y(), w.z()};
-}
 
 constexpr double kPushOut = 0.2;  // share of a penetration undone per step
 
@@ -153,75 +141,104 @@ double inverseMass(const FemBody& b, int node) {
   return b.pinned[size_t(node)] ? 0.0 : 1.0 / b.mass[size_t(node)];
 }
 
+// A solid at the end of the step: node positions x + dt v, their bounding
+// box, and its tetrahedra binned for point queries.
+struct EndOfStep {
+  std::vector<Vec3d> y;
+  Box box;
+  TetBins bins;
+  EndOfStep(const FemBody& f, double dt) : y(endPositions(f, dt)), bins(y, f.mesh) {
+    for (const Vec3d& p : y) box.add(p);
+  }
+  static std::vector<Vec3d> endPositions(const FemBody& f, double dt) {
+    std::vector<Vec3d> y(f.nodes());
+    for (size_t i = 0; i < f.nodes(); ++i) y[i] = f.x[i] + dt * f.v[i];
+    return y;
+  }
+};
+
+// A point found inside a solid: its tetrahedron and barycentric weights, the
+// solid's velocity there, and the boundary face it is pushed out through
+// (outward unit normal, signed distance: negative inside).
+struct Penetration {
+  int tet = -1;
+  std::array<double, 4> w{};
+  Vec3d vb = Vec3d::Zero(), normal = Vec3d::Zero();
+  double depth = 0.0;
+};
+
+// Whether point x (moving at v over the step) ends inside solid b. The
+// face it is pushed out through is the one it crossed in this step
+// (walking back along its motion relative to b, in rest space), which at
+// an edge need not be the nearest one, else the nearest one. Depth and
+// normal are those of the face deformed (the plane of its four nodes), so
+// that the split of the voxels into tetrahedra does not tilt them.
+bool findPenetration(const ElasticSolid& b, const EndOfStep& end, const Vec3d& x, const Vec3d& v,
+                     double dt, Penetration& out) {
+  const FemBody& fb = b.fem;
+  if (!end.box.contains(x)) return false;
+  const std::vector<int>* candidates = end.bins.at(x);
+  if (!candidates) return false;
+  for (int t : *candidates) {
+    const auto& n = fb.mesh.tets[size_t(t)];
+    const std::array<double, 4> w = barycentric(end.y, n, x);
+    if (*std::min_element(w.begin(), w.end()) < -1e-9) continue;
+    Vec3d rest = Vec3d::Zero(), vb = Vec3d::Zero();
+    for (int k = 0; k < 4; ++k) {
+      rest += w[size_t(k)] * fb.mesh.nodes[size_t(n[k])];
+      vb += w[size_t(k)] * fb.v[size_t(n[k])];
+    }
+    const Mat3d F = edges(end.y, n) * fb.dm_inv[size_t(t)];
+    Face face;
+    if (restDepth(b, rest, face) <= 0.0) return false;
+    Face entry;
+    if (entryDepth(b, rest, -dt * (F.inverse() * (v - vb)), entry) >= 0.0) face = entry;
+    Vec3d centroid, normal;
+    if (!deformedFace(b, end.y, face, centroid, normal)) return false;
+    const double depth = normal.dot(x - centroid);
+    if (depth >= 0.0) return false;
+    out = {t, w, vb, normal, depth};
+    return true;
+  }
+  return false;
+}
+
 // Nodes of `a` stopped at the surface of `b`.
 size_t pushOut(ElasticSolid& a, ElasticSolid& b, double dt) {
   FemBody& fa = a.fem;
   FemBody& fb = b.fem;
-  std::vector<Vec3d> ya(fa.nodes()), yb(fb.nodes());
-  Box ba, bb;
-  for (size_t i = 0; i < fa.nodes(); ++i) ba.add(ya[i] = fa.x[i] + dt * fa.v[i]);
-  for (size_t i = 0; i < fb.nodes(); ++i) bb.add(yb[i] = fb.x[i] + dt * fb.v[i]);
-  if (!ba.overlaps(bb)) return 0;
-  const TetBins bins(yb, fb.mesh);
+  Box ba;
+  for (size_t i = 0; i < fa.nodes(); ++i) ba.add(fa.x[i] + dt * fa.v[i]);
+  const EndOfStep end(fb, dt);
+  if (!ba.overlaps(end.box)) return 0;
   const double mu = std::sqrt(double(a.friction) * double(b.friction));
   size_t contacts = 0;
   for (size_t i = 0; i < fa.nodes(); ++i) {
     const double inv_a = inverseMass(fa, int(i));
-    if (!bb.contains(ya[i]) || inv_a == 0.0) continue;
-    const std::vector<int>* candidates = bins.at(ya[i]);
-    if (!candidates) continue;
-    for (int t : *candidates) {
-      const auto& n = fb.mesh.tets[size_t(t)];
-      const std::array<double, 4> w = barycentric(yb, n, ya[i]);
-      if (*std::min_element(w.begin(), w.end()) < -1e-9) continue;
-      // Depth at the node's rest point in b: the nearest face of b's voxels
-      // along the six axes (its boundary at rest), and that face's normal
-      // turned by the element's deformation, F^-T N, whose length also
-      // turns rest into deformed distance.
-      Vec3d rest = Vec3d::Zero(), vb = Vec3d::Zero();
-      for (int k = 0; k < 4; ++k) {
-        rest += w[size_t(k)] * fb.mesh.nodes[size_t(n[k])];
-        vb += w[size_t(k)] * fb.v[size_t(n[k])];
-      }
-      Mat3d D;
-      for (int k = 0; k < 3; ++k) D.col(k) = yb[size_t(n[k + 1])] - yb[size_t(n[0])];
-      const Mat3d F = D * fb.dm_inv[size_t(t)];
-      // The boundary face of b the node is pushed out through: the one it
-      // crossed in this step (walking back along its motion relative to b,
-      // in rest space), which at an edge need not be the nearest one, else
-      // the nearest one. Depth and normal are those of the face deformed
-      // (the plane of its four nodes), so that the split of the voxels
-      // into tetrahedra does not tilt them.
-      Face face;
-      if (restDepth(b, rest, face) <= 0.0) break;
-      const Vec3d rel = fa.v[i] - vb;
-      Face entry;
-      if (entryDepth(b, rest, -dt * (F.inverse() * rel), entry) >= 0.0) face = entry;
-      Vec3d centroid, normal;
-      if (!deformedFace(b, yb, face, centroid, normal)) break;
-      const double depth = normal.dot(ya[i] - centroid);
-      if (depth >= 0.0) break;
-      // Separate the node and b's material point under it by the depth
-      // within the step: the impulse over the pair's reduced mass.
-      double inv_b = 0.0;
-      for (int k = 0; k < 4; ++k) inv_b += w[size_t(k)] * w[size_t(k)] * inverseMass(fb, n[k]);
-      const double inv_pair = inv_a + inv_b;
-      // Separation speed to gain: enough to stop the approach, and to undo
-      // a fifth of the penetration per step beyond it, so that a node found
-      // deep inside is eased out rather than thrown.
-      const double approach = std::max(0.0, -normal.dot(fa.v[i] - vb));
-      const double dvn = std::min(-depth / dt, approach + kPushOut * -depth / dt);
-      Vec3d impulse = (dvn / inv_pair) * normal;
-      // Coulomb friction on the relative sliding, bounded by that impulse.
-      Vec3d vt = fa.v[i] - vb;
-      vt -= normal.dot(vt) * normal;
-      const double slide = vt.norm();
-      if (slide > 0.0) impulse -= std::min(slide, mu * dvn) / inv_pair / slide * vt;
-      fa.v[i] += inv_a * impulse;
-      for (int k = 0; k < 4; ++k) fb.v[size_t(n[k])] -= w[size_t(k)] * inverseMass(fb, n[k]) * impulse;
-      ++contacts;
-      break;
-    }
+    Penetration pen;
+    if (inv_a == 0.0 || !findPenetration(b, end, fa.x[i] + dt * fa.v[i], fa.v[i], dt, pen))
+      continue;
+    const auto& n = fb.mesh.tets[size_t(pen.tet)];
+    // Separate the node and b's material point under it by the depth
+    // within the step: the impulse over the pair's reduced mass.
+    double inv_b = 0.0;
+    for (int k = 0; k < 4; ++k) inv_b += pen.w[size_t(k)] * pen.w[size_t(k)] * inverseMass(fb, n[k]);
+    const double inv_pair = inv_a + inv_b;
+    // Separation speed to gain: enough to stop the approach, and to undo
+    // a fifth of the penetration per step beyond it, so that a node found
+    // deep inside is eased out rather than thrown.
+    const Vec3d rel = fa.v[i] - pen.vb;
+    const double approach = std::max(0.0, -pen.normal.dot(rel));
+    const double dvn = std::min(-pen.depth / dt, approach + kPushOut * -pen.depth / dt);
+    Vec3d impulse = (dvn / inv_pair) * pen.normal;
+    // Coulomb friction on the relative sliding, bounded by that impulse.
+    const Vec3d vt = rel - pen.normal.dot(rel) * pen.normal;
+    const double slide = vt.norm();
+    if (slide > 0.0) impulse -= std::min(slide, mu * dvn) / inv_pair / slide * vt;
+    fa.v[i] += inv_a * impulse;
+    for (int k = 0; k < 4; ++k)
+      fb.v[size_t(n[k])] -= pen.w[size_t(k)] * inverseMass(fb, n[k]) * impulse;
+    ++contacts;
   }
   return contacts;
 }
@@ -230,53 +247,26 @@ size_t pushOut(ElasticSolid& a, ElasticSolid& b, double dt) {
 
 size_t pushParticlesOut(ElasticSolid& b, std::vector<ParticleSet>& sets, double dt) {
   FemBody& fb = b.fem;
-  std::vector<Vec3d> yb(fb.nodes());
-  Box bb;
-  for (size_t i = 0; i < fb.nodes(); ++i) bb.add(yb[i] = fb.x[i] + dt * fb.v[i]);
-  const TetBins bins(yb, fb.mesh);
+  const EndOfStep end(fb, dt);
   size_t moved = 0;
   for (ParticleSet& set : sets) {
     const double mp = double(set.mass);
     for (size_t p = 0; p < set.size(); ++p) {
-      const Vec3d x = set.x[p].cast<double>();
-      if (!bb.contains(x)) continue;
-      const std::vector<int>* candidates = bins.at(x);
-      if (!candidates) continue;
-      for (int t : *candidates) {
-        const auto& n = fb.mesh.tets[size_t(t)];
-        const std::array<double, 4> w = barycentric(yb, n, x);
-        if (*std::min_element(w.begin(), w.end()) < -1e-9) continue;
-        Vec3d rest = Vec3d::Zero(), vb = Vec3d::Zero();
-        for (int k = 0; k < 4; ++k) {
-          rest += w[size_t(k)] * fb.mesh.nodes[size_t(n[k])];
-          vb += w[size_t(k)] * fb.v[size_t(n[k])];
-        }
-        Mat3d D;
-        for (int k = 0; k < 3; ++k) D.col(k) = yb[size_t(n[k + 1])] - yb[size_t(n[0])];
-        const Mat3d F = D * fb.dm_inv[size_t(t)];
-        // Out through the face it came in by, else the nearest (as nodes).
-        Face face;
-        if (restDepth(b, rest, face) <= 0.0) break;
-        const Vec3d v = set.v[p].cast<double>();
-        Face entry;
-        if (entryDepth(b, rest, -dt * (F.inverse() * (v - vb)), entry) >= 0.0) face = entry;
-        Vec3d centroid, normal;
-        if (!deformedFace(b, yb, face, centroid, normal)) break;
-        const double depth = normal.dot(x - centroid);
-        if (depth >= 0.0) break;
-        // Onto the face; the approach velocity goes to the solid's nodes
-        // under the particle, by barycentric weight.
-        set.x[p] = (x - depth * normal).cast<float>();
-        const double vn = normal.dot(v - vb);
-        if (vn < 0.0) {
-          set.v[p] = (v - vn * normal).cast<float>();
-          for (int k = 0; k < 4; ++k)
-            if (!fb.pinned[size_t(n[k])])
-              fb.v[size_t(n[k])] += (w[size_t(k)] * mp * vn / fb.mass[size_t(n[k])]) * normal;
-        }
-        ++moved;
-        break;
+      const Vec3d x = set.x[p].cast<double>(), v = set.v[p].cast<double>();
+      Penetration pen;
+      if (!findPenetration(b, end, x, v, dt, pen)) continue;
+      // Onto the face; the approach velocity goes to the solid's nodes
+      // under the particle, by barycentric weight.
+      set.x[p] = (x - pen.depth * pen.normal).cast<float>();
+      const double vn = pen.normal.dot(v - pen.vb);
+      if (vn < 0.0) {
+        set.v[p] = (v - vn * pen.normal).cast<float>();
+        const auto& n = fb.mesh.tets[size_t(pen.tet)];
+        for (int k = 0; k < 4; ++k)
+          if (!fb.pinned[size_t(n[k])])
+            fb.v[size_t(n[k])] += (pen.w[size_t(k)] * mp * vn / fb.mass[size_t(n[k])]) * pen.normal;
       }
+      ++moved;
     }
   }
   return moved;

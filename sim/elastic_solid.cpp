@@ -2,17 +2,9 @@
 
 #include <cmath>
 
+#include "sim/sparse_grid.h"
+
 namespace triad {
-
-namespace {
-
-int64_t cellKey(const Eigen::Vector3i& c) {
-  constexpr int64_t kBias = 1 << 20;
-  return ((int64_t(c.x()) + kBias) << 42) | ((int64_t(c.y()) + kBias) << 21) |
-         (int64_t(c.z()) + kBias);
-}
-
-}  // namespace
 
 Eigen::Vector3i ElasticSolid::cellIndex(const Vec3d& rest) const {
   const TetMesh& m = fem.mesh;
@@ -20,19 +12,17 @@ Eigen::Vector3i ElasticSolid::cellIndex(const Vec3d& rest) const {
 }
 
 bool ElasticSolid::hasCell(const Eigen::Vector3i& ijk) const {
-  return cell_keys.count(cellKey(ijk)) > 0;
+  return cell_keys.count(packBlock(ijk)) > 0;
 }
 
 int ElasticSolid::nodeAt(const Eigen::Vector3i& ijk) const {
-  const auto it = node_keys.find(cellKey(ijk));
+  const auto it = node_keys.find(packBlock(ijk));
   return it == node_keys.end() ? -1 : it->second;
 }
 
 Vec3d ElasticSolid::normal(size_t i) const {
-  const auto& n = fem.mesh.tets[size_t(node_tet[i])];
-  Mat3d D;
-  for (int k = 0; k < 3; ++k) D.col(k) = fem.x[n[k + 1]] - fem.x[n[0]];
-  const Mat3d F = D * fem.dm_inv[size_t(node_tet[i])];
+  const size_t t = size_t(node_tet[i]);
+  const Mat3d F = edges(fem.x, fem.mesh.tets[t]) * fem.dm_inv[t];
   const Vec3d m = F.inverse().transpose() * normal0[i];
   const double len = m.norm();
   return len > 0 && std::isfinite(len) ? Vec3d(m / len) : normal0[i];
@@ -74,10 +64,10 @@ ElasticSolid makeElasticSolid(int object, const std::string& name, const Collisi
     const double len = n.norm();
     n = len > 0 ? Vec3d(n / len) : Vec3d(0, 1, 0);
   }
-  for (const Vec3d& c : m.cells) e.cell_keys.insert(cellKey(e.cellIndex(c)));
+  for (const Vec3d& c : m.cells) e.cell_keys.insert(packBlock(e.cellIndex(c)));
   // A corner's lattice index is that of the cell whose lowest corner it is.
   for (size_t i = 0; i < m.nodes.size(); ++i)
-    e.node_keys[cellKey(e.cellIndex(m.nodes[i] + Vec3d::Constant(0.5 * m.spacing)))] = int(i);
+    e.node_keys[packBlock(e.cellIndex(m.nodes[i] + Vec3d::Constant(0.5 * m.spacing)))] = int(i);
   std::vector<Vec3d> verts;
   for (const Vec3f& v : surface.vertices) verts.push_back(v.cast<double>());
   e.embedding = embed(m, verts);

@@ -27,8 +27,8 @@ struct ElasticSolid {
   // The voxel cells at rest by lattice coordinates (mesh.cells[c] =
   // cells[0] + spacing * ijk): where the solid's boundary is, for contact
   // with other elastic solids (sim/elastic_contact.h).
-  std::unordered_set<int64_t> cell_keys;
-  std::unordered_map<int64_t, int> node_keys;  // corner lattice -> node
+  std::unordered_set<uint64_t> cell_keys;  // packBlock of the lattice index
+  std::unordered_map<uint64_t, int> node_keys;  // corner lattice -> node
   Eigen::Vector3i cellIndex(const Vec3d& rest) const;
   bool hasCell(const Eigen::Vector3i& ijk) const;
   // The node at the lowest corner of cell ijk (so corners of cell c are

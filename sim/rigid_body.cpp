@@ -46,6 +46,16 @@ int RigidBody::sampleAt(const Vec3d& p) const {
   return cells[(size_t(i.x()) * cell_dims.y() + i.y()) * cell_dims.z() + i.z()];
 }
 
+bool RigidBody::distanceAt(const Vec3d& p, const Mat3d& R, double& phi_out, Vec3d& n_out) const {
+  if ((p - state.x).squaredNorm() > double(radius) * radius) return false;
+  const int k = sampleAt(p);
+  if (k < 0) return false;
+  n_out = R * n[size_t(k)].cast<double>();
+  const Vec3d xk = state.x + R * r[size_t(k)].cast<double>();
+  phi_out = double(phi[size_t(k)]) + n_out.dot(p - xk);
+  return true;
+}
+
 void RigidBody::advance(double dt) {
   if (fixed) return;
   state.x += dt * state.v;

@@ -73,6 +73,11 @@ struct RigidBody {
   void applyImpulse(const Vec3d& j, const Vec3d& p);
   // Index of the sample whose lattice cell holds world point p, or -1.
   int sampleAt(const Vec3d& p) const;
+  // The distance field near world point p, to first order from the sample
+  // whose cell holds it: signed distance (negative inside) and outward
+  // normal, with R = rotation(). False outside the bounding sphere or the
+  // sample lattice (outside, or deeper than the kept samples).
+  bool distanceAt(const Vec3d& p, const Mat3d& R, double& phi_out, Vec3d& n_out) const;
 
   // Advance position and orientation over dt with the current velocities:
   // x += v dt, and the free rotation by a symmetric splitting into rotations

@@ -72,12 +72,11 @@ void pairContacts(const std::vector<RigidBody>& bodies, int ia, int ib,
   for (size_t q = 0; q < a.r.size(); ++q) {
     if ((a.r[q] - cb).squaredNorm() > rb2 || !onSurface(a, q)) continue;
     const Vec3d p = a.state.x + Ra * a.r[q].cast<double>();
-    const int k = b.sampleAt(p);
-    if (k < 0) continue;  // outside b, or deep inside (no nearby surface to push towards)
-    // b's distance field near its sample k, to first order.
-    const Vec3d nb = Rb * b.n[k].cast<double>();
-    const Vec3d xk = b.state.x + Rb * b.r[k].cast<double>();
-    const double phi_b = double(b.phi[k]) + nb.dot(p - xk);
+    // b's distance field there; none outside b, or deep inside (no nearby
+    // surface to push towards).
+    double phi_b;
+    Vec3d nb;
+    if (!b.distanceAt(p, Rb, phi_b, nb)) continue;
     // a's surface lies -phi_a beyond its sample.
     out.push_back({ia, ib, p, nb, phi_b + double(a.phi[q]), mu});
   }

@@ -354,14 +354,9 @@ void Solver::pushOutOfSolids(double dt) {
         for (size_t bi = 0; bi < nb; ++bi) {
           const RigidBody& b = world_.bodies[bi];
           const Vec3d x = set.x[i].cast<double>();
-          if ((x - b.state.x).squaredNorm() > double(b.radius) * b.radius) continue;
-          const int k = b.sampleAt(x);
-          if (k < 0) continue;
-          const Mat3d& R = rot[bi];
-          const Vec3d n = R * b.n[k].cast<double>();
-          const Vec3d xk = b.state.x + R * b.r[k].cast<double>();
-          const double phi = double(b.phi[k]) + n.dot(x - xk);
-          if (phi >= 0.0) continue;
+          double phi;
+          Vec3d n;
+          if (!b.distanceAt(x, rot[bi], phi, n) || phi >= 0.0) continue;
           const Vec3d v = set.v[i].cast<double>();
           const Vec3d v_rel = v - (b.state.v + omega[bi].cross(x - b.state.x));
           Vec3d out = x - phi * n, normal = n;
@@ -482,12 +477,9 @@ void Solver::constrainElastic(ElasticSolid& e, size_t first, double dt) {
     const Mat3d R = b.rotation();
     for (size_t i = 0; i < fem.nodes(); ++i) {
       const Vec3d x = fem.x[i] + dt * fem.v[i];
-      if ((x - b.state.x).squaredNorm() > double(b.radius) * b.radius) continue;
-      const int k = b.sampleAt(x);
-      if (k < 0) continue;
-      const Vec3d n = R * b.n[k].cast<double>();
-      const double phi = double(b.phi[k]) + n.dot(x - (b.state.x + R * b.r[k].cast<double>()));
-      if (phi >= 0.0) continue;
+      double phi;
+      Vec3d n;
+      if (!b.distanceAt(x, R, phi, n) || phi >= 0.0) continue;
       const Vec3d dv = (-phi / dt) * n;
       fem.v[i] += dv;
       b.applyImpulse(-fem.mass[i] * dv, x);
@@ -513,13 +505,9 @@ void Solver::moveElastic(ElasticSolid& e, double dt) {
   for (const RigidBody& b : world_.bodies) {
     const Mat3d R = b.rotation();
     for (size_t i = 0; i < fem.nodes(); ++i) {
-      const Vec3d& x = fem.x[i];
-      if ((x - b.state.x).squaredNorm() > double(b.radius) * b.radius) continue;
-      const int k = b.sampleAt(x);
-      if (k < 0) continue;
-      const Vec3d n = R * b.n[k].cast<double>();
-      const double phi = double(b.phi[k]) + n.dot(x - (b.state.x + R * b.r[k].cast<double>()));
-      if (phi < 0.0) fem.x[i] -= phi * n;
+      double phi;
+      Vec3d n;
+      if (b.distanceAt(fem.x[i], R, phi, n) && phi < 0.0) fem.x[i] -= phi * n;
     }
   }
 }

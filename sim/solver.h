@@ -113,8 +113,8 @@ class Solver {
   std::vector<Vec3d> fem_force_;
   std::vector<std::pair<size_t, size_t>> contact_bodies_;  // (plane, rigid body) of elasticContacts
   std::vector<Vec3d> contact_surface_;                     // per such plane, the surface point
-  static constexpr int kContactPasses = 3;
-  static constexpr double kMaxElementCfl = 0.5;  // explicit FEM step, fraction of h / c  // implicit solves per step against moving bodies
+  static constexpr int kContactPasses = 3;        // implicit solves per step against moving bodies
+  static constexpr double kMaxElementCfl = 0.5;  // explicit FEM step, fraction of h / c
   bool shrunk_ = false;  // particles moved out of bodies in the last step
 
   float max_speed_ = 0.0f;

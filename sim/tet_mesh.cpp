@@ -4,27 +4,17 @@
 #include <limits>
 #include <unordered_map>
 
+#include "sim/sparse_grid.h"
+
 namespace triad {
 
-namespace {
-
-// Integer lattice coordinates packed into one key (21 bits per axis).
-uint64_t packCorner(const Eigen::Vector3i& c) {
-  constexpr int64_t kOffset = int64_t{1} << 20;
-  return (uint64_t(c.x() + kOffset) << 42) | (uint64_t(c.y() + kOffset) << 21) |
-         uint64_t(c.z() + kOffset);
-}
-
-// Barycentric weights of p in tetrahedron t at rest.
-std::array<double, 4> barycentric(const TetMesh& m, size_t t, const Vec3d& p) {
-  const auto& n = m.tets[t];
+std::array<double, 4> barycentric(const std::vector<Vec3d>& x, const std::array<int, 4>& tet,
+                                  const Vec3d& p) {
   Mat3d D;
-  for (int k = 0; k < 3; ++k) D.col(k) = m.nodes[n[k + 1]] - m.nodes[n[0]];
-  const Vec3d b = D.inverse() * (p - m.nodes[n[0]]);
+  for (int k = 0; k < 3; ++k) D.col(k) = x[size_t(tet[k + 1])] - x[size_t(tet[0])];
+  const Vec3d b = D.inverse() * (p - x[size_t(tet[0])]);
   return {1.0 - b.sum(), b.x(), b.y(), b.z()};
 }
-
-}  // namespace
 
 double TetMesh::restVolume(size_t t) const {
   const auto& n = tets[t];
@@ -43,7 +33,7 @@ TetMesh tetsFromVoxels(const std::vector<Vec3d>& centres, double h) {
   const Vec3d origin = centres[0] - Vec3d::Constant(0.5 * h);
   std::unordered_map<uint64_t, int> corner_index;
   auto corner = [&](const Eigen::Vector3i& c) {
-    auto [it, fresh] = corner_index.try_emplace(packCorner(c), int(m.nodes.size()));
+    auto [it, fresh] = corner_index.try_emplace(packBlock(c), int(m.nodes.size()));
     if (fresh) m.nodes.push_back(origin + h * c.cast<double>());
     return it->second;
   };
@@ -78,7 +68,7 @@ std::vector<Embedding> embed(const TetMesh& m, const std::vector<Vec3d>& points)
   std::unordered_map<uint64_t, int> cell_index;
   for (size_t c = 0; c < m.cells.size(); ++c) {
     const Vec3d rel = (m.cells[c] - origin) / h;
-    cell_index.emplace(packCorner(Eigen::Vector3i(int(std::lround(rel.x())),
+    cell_index.emplace(packBlock(Eigen::Vector3i(int(std::lround(rel.x())),
                                                   int(std::lround(rel.y())),
                                                   int(std::lround(rel.z())))),
                        int(c));
@@ -86,7 +76,7 @@ std::vector<Embedding> embed(const TetMesh& m, const std::vector<Vec3d>& points)
   for (size_t i = 0; i < points.size(); ++i) {
     const Vec3d rel = (points[i] - origin) / h;
     int cell = -1;
-    auto it = cell_index.find(packCorner(Eigen::Vector3i(
+    auto it = cell_index.find(packBlock(Eigen::Vector3i(
         int(std::lround(rel.x())), int(std::lround(rel.y())), int(std::lround(rel.z())))));
     if (it != cell_index.end()) {
       cell = it->second;
@@ -102,7 +92,7 @@ std::vector<Embedding> embed(const TetMesh& m, const std::vector<Vec3d>& points)
     double best_min = -std::numeric_limits<double>::max();
     for (int k = 0; k < 6; ++k) {
       const size_t t = size_t(cell) * 6 + k;
-      const auto w = barycentric(m, t, points[i]);
+      const auto w = barycentric(m.nodes, m.tets[t], points[i]);
       const double lo = std::min(std::min(w[0], w[1]), std::min(w[2], w[3]));
       if (lo > best_min) {
         best_min = lo;

@@ -24,6 +24,11 @@ struct TetMesh {
 // positively oriented tetrahedra each, corners shared between cells.
 TetMesh tetsFromVoxels(const std::vector<Vec3d>& centres, double h);
 
+// Barycentric weights of p in tetrahedron `tet` of node positions x (sum 1;
+// all >= 0 inside).
+std::array<double, 4> barycentric(const std::vector<Vec3d>& x, const std::array<int, 4>& tet,
+                                  const Vec3d& p);
+
 // Where a point sits in a mesh at rest: a tetrahedron and barycentric
 // weights (summing to 1; all >= 0 inside). Points outside every
 // tetrahedron get the nearest one by barycentric distance, so that a
