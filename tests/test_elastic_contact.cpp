@@ -4,6 +4,7 @@
 // distorting; and elastic solids meet each other.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "scene_fixture.h"
@@ -141,10 +142,8 @@ int deepPoints(const std::vector<Vec3d>& points, const FemBody& q) {
   int count = 0;
   for (const Vec3d& x : points)
     for (const auto& n : q.mesh.tets) {
-      Mat3d D;
-      for (int k = 0; k < 3; ++k) D.col(k) = q.x[size_t(n[k + 1])] - q.x[size_t(n[0])];
-      const Vec3d b = D.inverse() * (x - q.x[size_t(n[0])]);
-      if (b.minCoeff() > 0.05 && 1.0 - b.sum() > 0.05) {
+      const std::array<double, 4> w = barycentric(q.x, n, x);
+      if (*std::min_element(w.begin(), w.end()) > 0.05) {
         ++count;
         break;
       }

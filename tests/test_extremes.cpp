@@ -128,24 +128,17 @@ TEST(Extremes, MaterialLeavingTheDomainStaysIn) {
 // A domain of 4 cells and one of 2000 cells per axis (sparse: only the
 // material's blocks exist), relative to dx.
 TEST(Extremes, TinyAndHugeDomainsRelativeToDx) {
-  {
-    json j = test::baseScene("tiny", {0.08, 0.08, 0.08}, 0.02);
-    j["materials"]["m"] = jelly(1e4);
-    j["objects"].push_back(mpm(box({0.02, 0.02, 0.02}, {0.06, 0.06, 0.06})));
-    World w = test::loadWorld(test::tempDir("tiny"), j);
+  auto run = [](const std::string& name, double size, double E, const json& shape, double t) {
+    json j = test::baseScene(name, {size, size, size}, 0.02);
+    j["materials"]["m"] = jelly(E);
+    j["objects"].push_back(mpm(shape));
+    World w = test::loadWorld(test::tempDir(name), j);
     Solver solver(w);
-    solver.advanceTo(0.1);
-    expectSane(w, "tiny");
-  }
-  {
-    json j = test::baseScene("huge", {40, 40, 40}, 0.02);
-    j["materials"]["m"] = jelly(1e5);
-    j["objects"].push_back(mpm(box({0.14, 0.1, 0.14}, {0.26, 0.22, 0.26})));
-    World w = test::loadWorld(test::tempDir("huge"), j);
-    Solver solver(w);
-    solver.advanceTo(0.05);
-    expectSane(w, "huge");
-  }
+    solver.advanceTo(t);
+    expectSane(w, name);
+  };
+  run("tiny", 0.08, 1e4, box({0.02, 0.02, 0.02}, {0.06, 0.06, 0.06}), 0.1);
+  run("huge", 40, 1e5, box({0.14, 0.1, 0.14}, {0.26, 0.22, 0.26}), 0.05);
 }
 
 }  // namespace
