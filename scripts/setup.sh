@@ -1,6 +1,9 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages Triad needs, only those that are missing.
 # Runs as root, or through sudo when available.
+#   scripts/setup.sh               what building and testing need
+#   scripts/setup.sh --validation  also Python with NumPy and Matplotlib, for
+#                                  bench/validation/run.sh
 set -euo pipefail
 
 PACKAGES=(
@@ -17,6 +20,10 @@ PACKAGES=(
   # holds real-world and broken meshes for the import tests)
   libgtest-dev libopenvdb-tools assimp-testmodels
 )
+if [ "${1:-}" = "--validation" ]; then
+  # bench/validation/: runs the scenes, reads the caches, plots error against cost
+  PACKAGES+=(python3 python3-numpy python3-matplotlib)
+fi
 
 missing=()
 for p in "${PACKAGES[@]}"; do
