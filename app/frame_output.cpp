@@ -92,7 +92,7 @@ std::string checkBodyPly(const std::string& path, const TriSurface& surface) {
 // What is wrong with the frame's cache files (empty when they are complete).
 // Fills `states` with the state table's rows of frames 0..frame.
 std::string checkFrameCaches(const SceneDesc& scene, const std::string& out_dir, int frame,
-                             const World& world, RigidStateLog& states) {
+                             const World& world, BodyLogs& logs) {
   if (scene.output.ply) {
     const std::string p = particlesPath(out_dir, frame);
     const std::string why = checkParticlesPly(p, world.particleCount());
@@ -112,8 +112,11 @@ std::string checkFrameCaches(const SceneDesc& scene, const std::string& out_dir,
   }
   if (!names.empty()) {
     const std::string p = rigidStatesPath(out_dir);
-    const std::string why = states.load(p, frame, names);
+    const std::string why = logs.states.load(p, frame, names);
     if (!why.empty()) return p + ": " + why;
+    const std::string f = bodyForcesPath(out_dir);
+    const std::string why_f = logs.forces.load(f, frame, names);
+    if (!why_f.empty()) return f + ": " + why_f;
   }
   if (scene.output.vdb) {
     const std::string p = volumesPath(out_dir, frame);
@@ -145,6 +148,10 @@ std::string rigidStatesPath(const std::string& out_dir) {
   return bodiesDir(out_dir) + "/rigid_states.csv";
 }
 
+std::string bodyForcesPath(const std::string& out_dir) {
+  return bodiesDir(out_dir) + "/forces.csv";
+}
+
 std::string checkpointPath(const std::string& out_dir, int frame) {
   return frameName(checkpointDir(out_dir), "state", frame, "bin");
 }
@@ -174,16 +181,28 @@ void writeFrameCaches(const SceneDesc& scene, const std::string& out_dir, const 
   }
 }
 
-void writeFrameBodies(const std::string& out_dir, const World& world, int frame,
-                      RigidStateLog& states) {
+void writeFrameBodies(const std::string& out_dir, const World& world, int frame, BodyLogs& logs,
+                      const std::vector<BodyLoad>& loads) {
   for (const ElasticSolid& e : world.elastics)
     writeElasticPly(bodyMeshPath(out_dir, e.name, frame), e, world.time);
   if (world.bodies.empty()) return;
   for (const RigidBody& b : world.bodies)
     writeBodyPly(bodyMeshPath(out_dir, b.name, frame), b, world.time);
-  // The table last: its rows of a frame say that frame's meshes are written.
-  states.record(frame, world.time, world.bodies);
-  states.write(rigidStatesPath(out_dir));
+  // The forces of the frame's steps, then the state table last: its rows of
+  // a frame say that frame's files are written.
+  if (frame > 0) {
+    std::vector<Vec3d> forces, torques;
+    for (const BodyLoad& l : loads) {
+      forces.push_back(l.force());
+      torques.push_back(l.torque());
+    }
+    logs.forces.record(frame, world.time, world.bodies, forces, torques);
+  } else {
+    logs.forces.clear();
+  }
+  logs.forces.write(bodyForcesPath(out_dir));
+  logs.states.record(frame, world.time, world.bodies);
+  logs.states.write(rigidStatesPath(out_dir));
 }
 
 void writeFrameCheckpoint(const std::string& out_dir, int frame, const std::string& scene_hash,
@@ -240,7 +259,10 @@ void removeFramesAfter(const std::string& out_dir, int last_frame) {
 void removeOtherBodies(const std::string& out_dir, const World& world) {
   const std::string dir = bodiesDir(out_dir);
   std::error_code ec, ignored;
-  if (world.bodies.empty()) fs::remove(rigidStatesPath(out_dir), ignored);
+  if (world.bodies.empty()) {
+    fs::remove(rigidStatesPath(out_dir), ignored);
+    fs::remove(bodyForcesPath(out_dir), ignored);
+  }
   for (const auto& e : fs::directory_iterator(dir, ec)) {
     std::smatch m;
     const std::string name = e.path().filename().string();
@@ -299,10 +321,10 @@ std::optional<ResumePoint> resumeFromCheckpoint(const SceneDesc& scene, const st
         throw CheckpointError("frame " + std::to_string(ckpt.frame) + " outside 0.." +
                               std::to_string(scene.frames.count));
       // The frame's cache files must be complete too.
-      RigidStateLog states;
-      const std::string why = checkFrameCaches(scene, out_dir, ckpt.frame, world, states);
+      BodyLogs logs;
+      const std::string why = checkFrameCaches(scene, out_dir, ckpt.frame, world, logs);
       if (!why.empty()) throw CheckpointError("its frame's cache is incomplete: " + why);
-      ResumePoint rp{ckpt.frame, path, ckpt.record, std::move(states)};
+      ResumePoint rp{ckpt.frame, path, ckpt.record, std::move(logs)};
       restoreCheckpoint(std::move(ckpt), world, solver);
       return rp;
     } catch (const CheckpointError& e) {

@@ -21,6 +21,13 @@ std::string checkpointPath(const std::string& out_dir, int frame);
 std::string bodiesDir(const std::string& out_dir);
 std::string bodyMeshPath(const std::string& out_dir, const std::string& name, int frame);
 std::string rigidStatesPath(const std::string& out_dir);
+std::string bodyForcesPath(const std::string& out_dir);
+
+// The run-long tables of bodies/: their rows of the frames written so far.
+struct BodyLogs {
+  RigidStateLog states;  // rigid_states.csv, frames 0..
+  BodyForceLog forces;   // forces.csv, frames 1..
+};
 
 // Creates the folders the scene's outputs need under out_dir (bodies/ when
 // the scene has rigid objects).
@@ -32,11 +39,12 @@ void writeFrameCaches(const SceneDesc& scene, const std::string& out_dir, const 
                       int frame);
 
 // Writes the frame's rigid body caches: every body's surface, then the state
-// table with this frame's rows recorded in `states`. Body caches are small
-// and are written whatever output.ply/vdb/png say, like run.json. Nothing is
-// written for a world without bodies.
-void writeFrameBodies(const std::string& out_dir, const World& world, int frame,
-                      RigidStateLog& states);
+// table with this frame's rows recorded in `logs`, and for frames after the
+// first the force table from `loads` (the solver's, since the frame before).
+// Body caches are small and are written whatever output.ply/vdb/png say,
+// like run.json. Nothing is written for a world without bodies.
+void writeFrameBodies(const std::string& out_dir, const World& world, int frame, BodyLogs& logs,
+                      const std::vector<BodyLoad>& loads);
 
 // Writes the frame's checkpoint, then deletes all but it and the one before.
 void writeFrameCheckpoint(const std::string& out_dir, int frame, const std::string& scene_hash,
@@ -65,7 +73,7 @@ struct ResumePoint {
   int frame = 0;
   std::string checkpoint;  // its path
   StepRecord record;       // step statistics of the run up to that frame
-  RigidStateLog states;    // rigid_states.csv rows of frames 0..frame (bodies only)
+  BodyLogs logs;           // body table rows up to frame (bodies only)
 };
 
 // What a checkpoint records as its scene: the scene file's hash, and the

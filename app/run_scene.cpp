@@ -116,7 +116,7 @@ int runScene(const RunOptions& options) {
   int start_frame = 0;
   int resumed_from = -1;
   StepRecord before;  // step statistics of the run before it was resumed
-  RigidStateLog states;  // bodies/rigid_states.csv: rows of the frames written
+  BodyLogs body_logs;  // bodies/rigid_states.csv and forces.csv: rows of the frames written
   try {
     removeStaleTemporaries(out_dir);
     removeFramesAfter(out_dir, scene.frames.count);
@@ -125,7 +125,7 @@ int runScene(const RunOptions& options) {
       if (auto rp = resumeFromCheckpoint(scene, out_dir, checkpoint_key, world, solver)) {
         start_frame = resumed_from = rp->frame;
         before = rp->record;
-        states = std::move(rp->states);
+        body_logs = std::move(rp->logs);
         std::fprintf(stderr, "triad: resuming after frame %d from %s\n", rp->frame,
                      rp->checkpoint.c_str());
       } else {
@@ -188,7 +188,7 @@ int runScene(const RunOptions& options) {
     const double t0 = omp_get_wtime();
     // Particles (PLY), volumes (VDB), rigid body meshes and states.
     writeFrameCaches(scene, out_dir, world, frame);
-    writeFrameBodies(out_dir, world, frame, states);
+    writeFrameBodies(out_dir, world, frame, body_logs, solver.bodyLoads());
     // The preview render (rigid bodies drawn as meshes).
     if (preview) preview->writeFrame(world, frame);
     // The checkpoint, last: --resume trusts every file of a checkpointed frame.
@@ -206,6 +206,7 @@ int runScene(const RunOptions& options) {
     if (resumed_from < 0) writeFrame(0);
     for (frame = start_frame + 1; frame <= frames; ++frame) {
       const double t_frame = frame / scene.frames.fps;
+      solver.resetLoads();
       solver.advanceTo(t_frame, [&](double dt) {
         progress.step(frame, world.steps, world.time, dt);
       });

@@ -1,5 +1,7 @@
 #include "export/body_writer.h"
 
+#include <algorithm>
+
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
@@ -22,8 +24,6 @@ struct PlyFace {
 #pragma pack(pop)
 static_assert(sizeof(PlyFace) == 13, "PLY face must be packed");
 static_assert(sizeof(Vec3f) == 12, "Eigen Vec3f must be packed");
-
-constexpr int kColumns = 16;
 
 // %.9g is enough to give back every float exactly, and a double to 1e-9
 // relative: as much as a cache consumer can use. Negative zero is written
@@ -112,32 +112,36 @@ std::string rigidStateRow(int frame, double time, const RigidBody& body) {
   return row;
 }
 
-const char* RigidStateLog::header() {
-  return "frame,time,name,px,py,pz,qw,qx,qy,qz,vx,vy,vz,wx,wy,wz";
-}
+BodyTable::BodyTable(std::string header, int first_frame)
+    : header_(std::move(header)),
+      first_frame_(first_frame),
+      columns_(size_t(std::count(header_.begin(), header_.end(), ',')) + 1) {}
 
-void RigidStateLog::record(int frame, double time, const std::vector<RigidBody>& bodies) {
+void BodyTable::record(int frame, const std::vector<std::string>& rows) {
   while (!rows_.empty() && rows_.back().first >= frame) rows_.pop_back();
-  for (const RigidBody& b : bodies) rows_.emplace_back(frame, rigidStateRow(frame, time, b));
+  for (const std::string& row : rows) rows_.emplace_back(frame, row);
 }
 
-std::string RigidStateLog::load(const std::string& path, int last_frame,
-                                const std::vector<std::string>& names) {
+std::string BodyTable::load(const std::string& path, int last_frame,
+                            const std::vector<std::string>& names) {
   std::ifstream in(path, std::ios::binary);
   if (!in) return "missing";
   std::string line;
-  if (!std::getline(in, line) || line != header()) return "not a rigid state table (header)";
-  // Rows of frames 0..last_frame, in order, one per body; later ones are dropped.
+  if (!std::getline(in, line) || line != header_)
+    return "not the expected table (header \"" + header_ + "\")";
+  // Rows of frames first_frame..last_frame, in order, one per body; later ones are dropped.
   std::vector<std::pair<int, std::string>> rows;
-  const size_t want = size_t(last_frame + 1) * names.size();
+  const size_t want = size_t(std::max(0, last_frame + 1 - first_frame_)) * names.size();
   for (size_t line_no = 2; rows.size() < want && std::getline(in, line); ++line_no) {
     if (in.eof()) return "line " + std::to_string(line_no) + " is cut short (no newline)";
     const std::vector<std::string> f = splitCommas(line);
     int frame = -1;
-    bool numbers = f.size() == kColumns && isInteger(f[0], frame);
+    bool numbers = f.size() == columns_ && isInteger(f[0], frame);
     for (size_t k = 1; numbers && k < f.size(); ++k) numbers = k == 2 || isNumber(f[k]);
-    if (!numbers) return "line " + std::to_string(line_no) + " is not a row of 16 values";
-    const int expect_frame = int(rows.size() / names.size());
+    if (!numbers)
+      return "line " + std::to_string(line_no) + " is not a row of " + std::to_string(columns_) +
+             " values";
+    const int expect_frame = first_frame_ + int(rows.size() / names.size());
     const std::string& expect_name = names[rows.size() % names.size()];
     if (frame != expect_frame || f[2] != expect_name)
       return "line " + std::to_string(line_no) + " is frame " + f[0] + " of \"" + f[2] +
@@ -150,11 +154,36 @@ std::string RigidStateLog::load(const std::string& path, int last_frame,
   return "";
 }
 
-void RigidStateLog::write(const std::string& path) const {
+void BodyTable::write(const std::string& path) const {
   writeFileAtomically(path, [&](std::ostream& out) {
-    out << header() << "\n";
+    out << header_ << "\n";
     for (const auto& row : rows_) out << row.second << "\n";
   });
+}
+
+RigidStateLog::RigidStateLog()
+    : BodyTable("frame,time,name,px,py,pz,qw,qx,qy,qz,vx,vy,vz,wx,wy,wz", 0) {}
+
+void RigidStateLog::record(int frame, double time, const std::vector<RigidBody>& bodies) {
+  std::vector<std::string> rows;
+  for (const RigidBody& b : bodies) rows.push_back(rigidStateRow(frame, time, b));
+  BodyTable::record(frame, rows);
+}
+
+BodyForceLog::BodyForceLog() : BodyTable("frame,time,name,fx,fy,fz,tx,ty,tz", 1) {}
+
+void BodyForceLog::record(int frame, double time, const std::vector<RigidBody>& bodies,
+                          const std::vector<Vec3d>& forces, const std::vector<Vec3d>& torques) {
+  std::vector<std::string> rows;
+  for (size_t k = 0; k < bodies.size(); ++k) {
+    std::string row = std::to_string(frame);
+    appendNumber(row, time);
+    row += "," + bodies[k].name;
+    for (int d = 0; d < 3; ++d) appendNumber(row, forces[k][d]);
+    for (int d = 0; d < 3; ++d) appendNumber(row, torques[k][d]);
+    rows.push_back(row);
+  }
+  BodyTable::record(frame, rows);
 }
 
 }  // namespace triad

@@ -161,7 +161,7 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
       ++f;
     }
   }
-  nodes_.assign(slot_block_.size() * kBlockNodes, SolidNode{0, {0, 0, 0}, {0, 0, 0}, 0, 0, 0});
+  nodes_.assign(slot_block_.size() * kBlockNodes, SolidNode{0, {0, 0, 0}, {0, 0, 0}, 0, 0, 0, 0});
   for (const auto& [slot, f] : fixed_copy)
     std::copy_n(&fixed_nodes_[f * kBlockNodes], kBlockNodes, &nodes_[size_t(slot) * kBlockNodes]);
   for (auto& c : colour_blocks_) c.clear();
@@ -219,7 +219,7 @@ void GridCoupling::buildFixed(const SolidPoints& pts, const TransferParams& p) {
             const uint64_t key =
                 packBlock(Vec3i(blockOf(node.x()), blockOf(node.y()), blockOf(node.z())));
             std::vector<SolidNode>& blk = blocks[key];
-            if (blk.empty()) blk.assign(kBlockNodes, SolidNode{0, {0, 0, 0}, {0, 0, 0}, 0, 0, 0});
+            if (blk.empty()) blk.assign(kBlockNodes, SolidNode{0, {0, 0, 0}, {0, 0, 0}, 0, 0, 0, 0});
             SolidNode& g = blk[localNode(node.x(), node.y(), node.z())];
             const float w = st.w[0][a] * st.w[1][b] * st.w[2][c];
             g.m += w * m;
@@ -227,6 +227,8 @@ void GridCoupling::buildFixed(const SolidPoints& pts, const TransferParams& p) {
             g.mu += w * m * mu;
             g.fixed_m += w * m;
             g.solid = -1;  // several or none moving: never a body's node
+            const int32_t tag = int32_t(s) + 1;
+            g.fixed_solid = g.fixed_solid == 0 || g.fixed_solid == tag ? tag : -1;
           }
     }
   }
@@ -291,6 +293,7 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
       c.i = uint32_t(i);
       c.g = uint32_t(gb * kBlockNodes + k);
       c.fixed = sn.fixed_m > 0.0f;  // any immovable solid: infinite mass
+      c.fixed_solid = sn.fixed_solid > 0 ? sn.fixed_solid - 1 : -1;
       // A node of one moving rigid body: its response feeds back (below).
       c.solid = sn.solid > 0 && !c.fixed && pts.body_mass[size_t(sn.solid - 1)] > 0.0
                     ? sn.solid - 1
@@ -310,6 +313,9 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
     }
   }
   stats_.shared_nodes = shared_.size();
+  // What fixed solids take: the opposite of their nodes' impulses.
+  fixed_impulse_.assign(pts.solids(), Vec3d::Zero());
+  fixed_moment_.assign(pts.solids(), Vec3d::Zero());
 
   if (single) {
     // One grid: both sides move with the combined velocity.
@@ -317,6 +323,7 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
       const Vec3f vc = c.fixed ? Vec3f(Vec3f::Zero())
                                : Vec3f((c.m_vol * c.v_vol + c.m_mpm * c.v_mpm) / (c.m_vol + c.m_mpm));
       GridNode& g = grid[c.g];
+      if (c.fixed) addFixedLoad(c, c.m_mpm * (c.v_mpm - vc));
       for (int d = 0; d < 3; ++d) g.v[d] = vc[d];
       if (!c.fixed) delta_[c.i] = vc - c.v_vol;
     }
@@ -422,8 +429,17 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
     for (int d = 0; d < 3; ++d) g.v[d] = v[d];
     // The opposite impulse goes to the solid's node.
     if (!combined && !c.fixed) delta_[c.i] = -c.P / c.m_vol;
+    addFixedLoad(c, -c.P);
   }
   stats_.collisions = collisions;
+}
+
+void GridCoupling::addFixedLoad(const Shared& c, const Vec3f& impulse) {
+  // A node that several fixed solids share is counted for none of them.
+  if (!c.fixed || c.fixed_solid < 0) return;
+  const Vec3d j = impulse.cast<double>();
+  fixed_impulse_[size_t(c.fixed_solid)] += j;
+  fixed_moment_[size_t(c.fixed_solid)] += c.x.cast<double>().cross(j);
 }
 
 void GridCoupling::gather(SolidPoints& pts, const TransferParams& p) const {

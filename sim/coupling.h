@@ -78,6 +78,10 @@ class GridCoupling {
   void gather(SolidPoints& points, const TransferParams& p) const;
 
   const CouplingStats& stats() const { return stats_; }
+  // Per solid, the impulse the last collide() gave fixed solids, and its
+  // moment about the world origin (moving solids' come back through gather).
+  const std::vector<Vec3d>& fixedImpulse() const { return fixed_impulse_; }
+  const std::vector<Vec3d>& fixedMoment() const { return fixed_moment_; }
   // Whether fixed solids have been scattered once for good: their points
   // are no longer needed.
   bool fixedBuilt() const { return fixed_built_; }
@@ -85,15 +89,17 @@ class GridCoupling {
 
  private:
   // Solid data on one node: sums of w m, w m v, w n, w m mu, w m [fixed],
-  // and which solid it holds (solid + 1; 0 none yet; -1 several).
+  // which moving solid it holds and which fixed one (solid + 1; 0 none
+  // yet; -1 several).
   struct SolidNode {
     float m, p[3], n[3], mu, fixed_m;
-    int32_t solid;
+    int32_t solid, fixed_solid;
   };
   // A node with both MPM and solid mass, during the collision.
   struct Shared {
     uint32_t i, g;        // slot node, grid node
     int32_t solid;        // the one moving solid it holds, or -1
+    int32_t fixed_solid;  // the one fixed solid it holds, or -1
     bool fixed;
     float m_mpm, m_vol, mu;
     Vec3f v_mpm, v_cmp, v_vol, n, x;  // x: world position
@@ -119,6 +125,7 @@ class GridCoupling {
   std::array<std::vector<uint32_t>, 8> colour_blocks_;
   std::vector<uint64_t> point_key_;    // per point: base block key
   void buildFixed(const SolidPoints& points, const TransferParams& p);
+  void addFixedLoad(const Shared& c, const Vec3f& impulse);
 
   std::vector<Shared> shared_;
   std::vector<uint32_t> moving_;  // shared nodes of one moving rigid body
@@ -127,6 +134,7 @@ class GridCoupling {
   std::vector<SolidNode> fixed_nodes_;   // their node sums, 64 per block
   const std::vector<uint64_t>* layout_keys_ = nullptr;  // the grid's block keys
   CouplingStats stats_;
+  std::vector<Vec3d> fixed_impulse_, fixed_moment_;
 };
 
 }  // namespace triad

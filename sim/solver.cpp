@@ -65,6 +65,14 @@ Solver::Solver(World& world) : world_(world) {
     contact_.wall_friction = domain.boundary.friction;
     contact_.iterations = scene.solver.contact_iterations;
   }
+  resetLoads();
+}
+
+void Solver::resetLoads() { loads_.assign(world_.bodies.size(), BodyLoad{}); }
+
+void Solver::addLoad(size_t b, const Vec3d& j, const Vec3d& x) {
+  loads_[b].impulse += j;
+  loads_[b].moment += (x - world_.bodies[b].state.x).cross(j);
 }
 
 const CouplingStats& Solver::couplingStats() const {
@@ -116,6 +124,7 @@ void Solver::step(double dt) {
     if (solids) pushOutOfSolids(dt);  // no particle stays inside a body
   }
   if (solids) advanceSolids(dt);    // step 8, then contacts and rigid motion
+  for (BodyLoad& l : loads_) l.time += dt;
 
   world_.steps++;
   record_.steps++;
@@ -238,15 +247,17 @@ void Solver::predictSolids(double dt) {
       for (int pass = 0;; ++pass) {
         fem.implicitVelocities(dt, g, fem_force_, &contacts);
         for (size_t k = 0; k < world_.bodies.size(); ++k) world_.bodies[k].state = before[k];
+        const bool last = !dynamic || pass == kContactPasses - 1;
         for (const auto& [plane, body] : contact_bodies_)
           if (contacts.planes[plane].impulse > 0.0) {
             // At the surface point, on the normal's line: a sphere's normal
             // impulse has no moment about its centre.
             const NodePlane& pl = contacts.planes[plane];
-            world_.bodies[body].applyImpulse(-(pl.impulse * pl.n + pl.friction_impulse),
-                                             contact_surface_[plane]);
+            const Vec3d j = -(pl.impulse * pl.n + pl.friction_impulse);
+            world_.bodies[body].applyImpulse(j, contact_surface_[plane]);
+            if (last) addLoad(body, j, contact_surface_[plane]);
           }
-        if (!dynamic || pass == kContactPasses - 1) break;
+        if (last) break;
         for (const auto& [plane, body] : contact_bodies_) {
           NodePlane& pl = contacts.planes[plane];
           const Vec3d surface = contact_surface_[plane];
@@ -321,6 +332,12 @@ void Solver::scatterSolids() {
 void Solver::collideSolids() {
   PhaseTimer timer(times_.solids);
   coupling_->collide(grid_, points_, params_);
+  for (size_t b = 0; b < world_.bodies.size(); ++b) {
+    if (!world_.bodies[b].fixed) continue;
+    const Vec3d j = coupling_->fixedImpulse()[b];
+    loads_[b].impulse += j;
+    loads_[b].moment += coupling_->fixedMoment()[b] - world_.bodies[b].state.x.cross(j);
+  }
 }
 
 void Solver::pushOutOfSolids(double dt) {
@@ -392,8 +409,10 @@ void Solver::pushOutOfSolids(double dt) {
     for (int64_t c = 0; c < chunks; ++c)
       for (size_t bi = 0; bi < nb; ++bi) {
         RigidBody& b = world_.bodies[bi];
-        if (b.fixed) continue;
         const Push& acc = partial[size_t(c) * nb + bi];
+        loads_[bi].impulse += acc.p;
+        loads_[bi].moment += acc.l;
+        if (b.fixed) continue;
         b.state.v += acc.p / b.mass;
         b.state.L += acc.l;
       }
@@ -424,6 +443,8 @@ void Solver::advanceSolids(double dt) {
     }
     b.state.v += dp * (double(b.sample_mass) / b.mass);
     b.state.L += dl * double(b.sample_mass);
+    loads_[s].impulse += dp * double(b.sample_mass);
+    loads_[s].moment += dl * double(b.sample_mass);
   }
   contact_stats_ = resolveContacts(world_.bodies, contact_, dt);
   for (RigidBody& b : world_.bodies) {
@@ -472,8 +493,8 @@ void Solver::constrainElastic(ElasticSolid& e, size_t first, double dt) {
   }
   // Rigid bodies: a node inside one is pushed back to its surface, and the
   // body takes the momentum. (Implicit solids met them in their solve.)
-  for (RigidBody& b : world_.bodies) {
-    if (e.implicit) break;
+  for (size_t k = 0; k < world_.bodies.size() && !e.implicit; ++k) {
+    RigidBody& b = world_.bodies[k];
     const Mat3d R = b.rotation();
     for (size_t i = 0; i < fem.nodes(); ++i) {
       const Vec3d x = fem.x[i] + dt * fem.v[i];
@@ -483,6 +504,7 @@ void Solver::constrainElastic(ElasticSolid& e, size_t first, double dt) {
       const Vec3d dv = (-phi / dt) * n;
       fem.v[i] += dv;
       b.applyImpulse(-fem.mass[i] * dv, x);
+      addLoad(k, -fem.mass[i] * dv, x);
     }
   }
 }

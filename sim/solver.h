@@ -21,6 +21,17 @@ struct PhaseTimes {
   double total() const { return bin + stress + p2g + grid + g2p + solids; }
 };
 
+// What MPM material and elastic solids did to one rigid body since the
+// last reset: the impulse and its moment about the body's centre of mass,
+// summed over substeps, and the time they cover.
+struct BodyLoad {
+  Vec3d impulse = Vec3d::Zero();  // N s
+  Vec3d moment = Vec3d::Zero();   // N m s
+  double time = 0.0;              // s
+  Vec3d force() const { return time > 0.0 ? Vec3d(impulse / time) : Vec3d::Zero(); }
+  Vec3d torque() const { return time > 0.0 ? Vec3d(moment / time) : Vec3d::Zero(); }
+};
+
 struct StepRecord {
   int64_t steps = 0;
   double dt_min = 0.0, dt_max = 0.0;
@@ -65,6 +76,10 @@ class Solver {
   const CouplingStats& couplingStats() const;
   const ContactStats& contactStats() const { return contact_stats_; }
   size_t particlesPushedOut() const { return pushed_out_; }
+  // Per rigid body (scene order), the loads since the last resetLoads():
+  // bodies/forces.csv's mean force and torque over a frame.
+  const std::vector<BodyLoad>& bodyLoads() const { return loads_; }
+  void resetLoads();
   const StepRecord& record() const { return record_; }
   // Bytes held by grids and binning buffers (capacity).
   size_t bytes() const;
@@ -110,6 +125,9 @@ class Solver {
   ContactSettings contact_;
   ContactStats contact_stats_;
   size_t pushed_out_ = 0;
+  std::vector<BodyLoad> loads_;
+  // Adds impulse j applied at world point x to rigid body b's load.
+  void addLoad(size_t b, const Vec3d& j, const Vec3d& x);
   std::vector<Vec3d> fem_force_;
   std::vector<std::pair<size_t, size_t>> contact_bodies_;  // (plane, rigid body) of elasticContacts
   std::vector<Vec3d> contact_surface_;                     // per such plane, the surface point

@@ -1,0 +1,253 @@
+// Buoyancy of thin and submerged solids, measured against Archimedes:
+//   study_buoyancy [--start rest|submerged|dropped] [--thick CELLS]
+//                  [--ratio RHO/RHO_WATER] [--dx M] [--time S]
+//                  [--kind rigid|elastic] [--solver JSON] [--trace]
+// A slab 0.30 m long, CELLS * 0.02 m thick and 0.12 m deep in water 0.2 m
+// deep (bulk modulus 2e5 Pa), the setups. Prints the slab's bottom,
+// the water level (from the water's volume) and the draft against
+// Archimedes' over time, and a summary line.
+#include <omp.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <unistd.h>
+
+#include "import/mesh_sampler.h"
+#include "import/scene_loader.h"
+#include "sim/solver.h"
+#include <variant>
+
+namespace {
+
+using nlohmann::json;
+using triad::Vec3d;
+
+json box(const std::array<double, 3>& lo, const std::array<double, 3>& hi) {
+  return {{"box", {{"min", lo}, {"max", hi}}}};
+}
+
+struct Setup {
+  std::string start = "rest", kind = "rigid";
+  double thick = 3, ratio = 0.5, dx = 0.02, time = 2.0;
+  json solver = json::object();
+  bool trace = false, fixed = false;
+  double settle = 0;  // s the slab is held in place before it is released
+  double drive = 0;   // m/s: the slab is moved up at this speed, gravity off
+};
+
+static double kX = 0.5, kY = 0.4, kZ = 0.2, kDepth = 0.2;
+static double kSx0 = 0.1, kSx1 = 0.4, kSz0 = 0.04, kSz1 = 0.16;
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Setup s;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto next = [&]() { return std::string(argv[++i]); };
+    if (a == "--start") s.start = next();
+    else if (a == "--kind") s.kind = next();
+    else if (a == "--thick") s.thick = std::stod(next());
+    else if (a == "--ratio") s.ratio = std::stod(next());
+    else if (a == "--dx") s.dx = std::stod(next());
+    else if (a == "--time") s.time = std::stod(next());
+    else if (a == "--solver") s.solver = json::parse(next());
+    else if (a == "--trace") s.trace = true;
+    else if (a == "--fixed") s.fixed = true;
+    else if (a == "--settle") s.settle = std::stod(next());
+    else if (a == "--drive") s.drive = std::stod(next());
+    else if (a == "--wide") {  // gaps of 0.1 m all round
+      kZ = 0.32;
+      kSz0 = 0.1;
+      kSz1 = 0.22;
+      kX = 0.5;
+    }
+  }
+  const double t = s.thick * 0.02, rho = 1000 * s.ratio;
+  const double area = kX * kZ, slab_area = (kSx1 - kSx0) * (kSz1 - kSz0);
+  const double draft = s.ratio < 1 ? s.ratio * t : t;
+  double sx0 = kSx0, sx1 = kSx1, y0 = 0;
+  std::vector<json> water;
+  if (s.start == "rest") {
+    const double level = kDepth + draft * slab_area / area;
+    y0 = level - draft;
+    water = {box({0, 0, 0}, {kX, y0, kZ}), box({0, y0, 0}, {kSx0, level, kZ}),
+             box({kSx1, y0, 0}, {kX, level, kZ}), box({kSx0, y0, 0}, {kSx1, level, kSz0}),
+             box({kSx0, y0, kSz1}, {kSx1, level, kZ})};
+  } else if (s.start == "submerged") {
+    y0 = 0.5 * kDepth - 0.5 * t;
+    const double y1 = y0 + t, top = kDepth + t * slab_area / area;
+    water = {box({0, 0, 0}, {kX, y0, kZ}), box({0, y1, 0}, {kX, top, kZ}),
+             box({0, y0, 0}, {kSx0, y1, kZ}), box({kSx1, y0, 0}, {kX, y1, kZ}),
+             box({kSx0, y0, 0}, {kSx1, y1, kSz0}), box({kSx0, y0, kSz1}, {kSx1, y1, kZ})};
+  } else {  // dropped: 1 cm onto a block of water that slumps
+    water = {box({0, 0, 0}, {0.3, 0.3, kZ})};
+    y0 = 0.31;
+    sx0 = 0.0;
+    sx1 = 0.3;
+  }
+  json j = {{"version", 1},
+            {"name", "buoyancy"},
+            {"domain", {{"min", {0, 0, 0}}, {"max", {kX, kY, kZ}}, {"dx", s.dx}}},
+            {"solver", s.solver},
+            {"materials",
+             {{"water", {{"model", "water"}, {"density", 1000}, {"bulk_modulus", 2e5}}},
+              {"solid",
+               {{"model", "fixed_corotated"}, {"density", rho}, {"youngs_modulus", 3e5},
+                {"poisson_ratio", 0.3}}}}},
+            {"objects", json::array()}};
+  if (s.drive != 0 && !getenv("STUDY_GRAVITY")) j["gravity"] = {0, 0, 0};
+  for (size_t k = 0; k < water.size(); ++k)
+    j["objects"].push_back({{"name", "w" + std::to_string(k)}, {"kind", "mpm"},
+                            {"material", "water"}, {"shape", water[k]}});
+  json slab = {{"name", "slab"}, {"kind", s.kind}, {"shape", box({sx0, y0, kSz0}, {sx1, y0 + t, kSz1})}};
+  if (getenv("STUDY_SPHERE"))
+    slab["shape"] = {{"sphere", {{"center", {0.5 * kX, y0 + 0.5 * t, 0.5 * kZ}}, {"radius", 0.5 * t}}}};
+  if (s.kind == "rigid") slab["density"] = rho;
+  else slab["material"] = "solid";
+  if (s.fixed) slab["fixed"] = true;
+  j["objects"].push_back(slab);
+
+  const auto dir = std::filesystem::temp_directory_path() / "triad_study_buoyancy";
+  std::filesystem::create_directories(dir);
+  const auto path = dir / ("scene_" + std::to_string(::getpid()) + ".json");
+  std::ofstream(path) << j.dump();
+  triad::World w;
+  try {
+    w = triad::buildSceneWorld(triad::loadScene(path.string()));
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "%s\n", e.what());
+    return 1;
+  }
+  std::filesystem::remove(path);
+  triad::Solver solver(w);
+
+  // The slab's bottom and mean height; the water level from the water's
+  // volume, the slab's submerged part displacing it.
+  const int slab_object = int(j["objects"].size()) - 1;
+  auto bottom = [&]() {
+    if (!w.bodies.empty()) return w.bodies[0].state.x.y() - 0.5 * t;
+    if (s.kind == "mpm") {
+      double sum = 0;
+      size_t cnt = 0;
+      for (const triad::ParticleSet& set : w.sets)
+        for (size_t i = 0; i < set.size(); ++i)
+          if (set.object[i] == slab_object) {
+            sum += set.x[i].y();
+            ++cnt;
+          }
+      return sum / double(cnt) - 0.5 * t;
+    }
+    double lo = 1e9;
+    for (const Vec3d& x : w.elastics[0].fem.x) lo = std::min(lo, x.y());
+    return lo + 0.25 * s.dx;
+  };
+  auto level = [&]() {
+    double v = 0;
+    for (const triad::ParticleSet& set : w.sets)
+      for (size_t i = 0; i < set.size(); ++i)
+        if (set.object[i] != slab_object) v += set.volume * set.volumeRatio(i);
+    const double b = bottom();
+    double l = v / area;
+    if (l > b) l = std::min((v - slab_area * b) / (area - slab_area), (v + slab_area * t) / area);
+    return l;
+  };
+  if (s.settle > 0 && !w.bodies.empty()) {
+    const triad::RigidState held = w.bodies[0].state;
+    solver.advanceTo(s.settle, [&](double) { w.bodies[0].state = held; });
+  }
+  const double wall0 = omp_get_wtime();
+  const int n = int(std::round(s.time * 20));
+  double mean_draft = 0;
+  int counted = 0;
+  for (int k = 1; k <= n; ++k) {
+    solver.resetLoads();
+    if (s.drive != 0)
+      solver.advanceTo(s.settle + k / 20.0, [&](double) {
+        w.bodies[0].state.v = Vec3d(0, s.drive, 0);
+        w.bodies[0].state.L.setZero();
+      });
+    else
+      solver.advanceTo(s.settle + k / 20.0);
+    const double b = bottom(), l = level(), d = l - b;
+    // The water's force on the slab over the interval, in units of the
+    // slab's weight.
+    const double weight = w.bodies.empty() ? 1.0 : rho * t * slab_area * 9.81;
+    const double fy = w.bodies.empty() ? 0.0 : solver.bodyLoads()[0].force().y() / weight;
+    // Mean water pressure in layers one cell thick under and over the
+    // slab, inside its footprint and far from it, at the same heights.
+    double ps[4] = {0, 0, 0, 0};
+    int pn[4] = {0, 0, 0, 0};
+    for (const triad::ParticleSet& set : w.sets) {
+      const auto* wat = std::get_if<triad::Water<float>>(&set.model);
+      if (!wat) continue;
+      for (size_t i = 0; i < set.size(); ++i) {
+        const triad::Vec3f& x = set.x[i];
+        const bool under = x.y() > b - 1.5 * s.dx && x.y() < b - 0.5 * s.dx;
+        const bool over = x.y() > b + t + 0.5 * s.dx && x.y() < b + t + 1.5 * s.dx;
+        if (!under && !over) continue;
+        const bool inside = x.x() > sx0 + s.dx && x.x() < sx1 - s.dx && x.z() > kSz0 + s.dx &&
+                            x.z() < kSz1 - s.dx;
+        const bool far = x.x() < sx0 - 2 * s.dx || x.x() > sx1 + 2 * s.dx;
+        if (!inside && !far) continue;
+        const int m = (under ? 0 : 2) + (inside ? 0 : 1);
+        ps[m] += wat->pressure(set.J[i]);
+        pn[m]++;
+      }
+    }
+    for (int m = 0; m < 4; ++m) ps[m] /= std::max(1, pn[m]);
+    if (s.trace)
+      std::printf("  p under %.0f (far %.0f) over %.0f (far %.0f)\n", ps[0], ps[1], ps[2], ps[3]);
+    if (s.trace)
+      std::printf("t %.2f bottom %.4f level %.4f draft %.4f (%+.2f dx) v %.3f F/mg %.3f\n",
+                  k / 20.0, b, l, d, (d - draft) / s.dx,
+                  w.bodies.empty() ? 0.0 : w.bodies[0].state.v.y(), fy);
+    if (k > n / 2) {
+      mean_draft += d;
+      ++counted;
+    }
+  }
+  mean_draft /= counted;
+  if (getenv("STUDY_SURFACE")) {
+    // Highest water particle per column of cells along x at the slab's middle z.
+    const int nx = int(std::round(kX / s.dx));
+    std::vector<double> top(size_t(nx), -1), over(size_t(nx), 0);
+    for (const triad::ParticleSet& set : w.sets)
+      for (size_t i = 0; i < set.size(); ++i) {
+        if (set.object[i] == slab_object) continue;
+        const int c = std::clamp(int(set.x[i].x() / s.dx), 0, nx - 1);
+        if (std::abs(set.x[i].z() - 0.5 * kZ) > 1.5 * s.dx) continue;
+        top[size_t(c)] = std::max(top[size_t(c)], double(set.x[i].y()));
+        if (set.x[i].y() > bottom() + t) over[size_t(c)] += 1;
+      }
+    for (int c = 0; c < nx; ++c)
+      std::printf("column x %.3f: top particle %.4f, particles over the slab top %.0f\n", (c + 0.5) * s.dx, top[size_t(c)], over[size_t(c)]);
+    std::printf("slab top %.4f\n", bottom() + t);
+    // Spread of J in layers: near the slab (within 2 cells) and far from it.
+    for (double y = 0.01; y < 0.2; y += 0.02) {
+      double sn = 0, sn2 = 0, sf = 0, sf2 = 0;
+      int nn = 0, nf = 0;
+      for (const triad::ParticleSet& set : w.sets)
+        for (size_t i = 0; i < set.size(); ++i) {
+          if (set.object[i] == slab_object || std::abs(set.x[i].y() - y) > 0.01) continue;
+          const double J = set.volumeRatio(i);
+          const bool near = set.x[i].x() > sx0 - 2 * s.dx && set.x[i].x() < sx1 + 2 * s.dx &&
+                            set.x[i].z() > kSz0 - 2 * s.dx && set.x[i].z() < kSz1 + 2 * s.dx;
+          if (near) { sn += J; sn2 += J * J; ++nn; } else { sf += J; sf2 += J * J; ++nf; }
+        }
+      auto sd = [](double a, double a2, int c) { return c > 1 ? std::sqrt(std::max(0.0, a2 / c - (a / c) * (a / c))) : 0.0; };
+      std::printf("layer y %.2f: near J %.5f sd %.5f (%d)   far J %.5f sd %.5f (%d)\n", y, sn / std::max(nn, 1), sd(sn, sn2, nn), nn, sf / std::max(nf, 1), sd(sf, sf2, nf), nf);
+    }
+  }
+  std::printf(
+      "%s %s thick %.0f cells ratio %.2f dx %.3f: draft %.4f (Archimedes %.4f, %+.2f dx), bottom "
+      "%.4f, wall %.1f s\n",
+      s.kind.c_str(), s.start.c_str(), s.thick, s.ratio, s.dx, mean_draft, draft,
+      (mean_draft - draft) / s.dx, bottom(), omp_get_wtime() - wall0);
+  return 0;
+}
