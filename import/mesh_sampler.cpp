@@ -53,29 +53,6 @@ void requireOverlap(const MeshAsset& a, const DomainDesc& domain) {
                                  ", the domain is " + fmt(dlo) + " to " + fmt(dhi));
 }
 
-// Box signed distance and outward normal (exact; interior: nearest face).
-double boxDistance(const BoxDesc& b, const Vec3d& p, Vec3d* normal) {
-  const Vec3d lo = toVec(b.min), hi = toVec(b.max);
-  const Vec3d c = 0.5 * (lo + hi), half = 0.5 * (hi - lo);
-  const Vec3d q = (p - c).cwiseAbs() - half;
-  const Vec3d outside = q.cwiseMax(0.0);
-  if (outside.squaredNorm() > 0) {
-    if (normal) {
-      Vec3d n = outside;
-      for (int d = 0; d < 3; ++d) n[d] *= p[d] < c[d] ? -1.0 : 1.0;
-      *normal = n.normalized();
-    }
-    return outside.norm();
-  }
-  int axis = 0;
-  q.maxCoeff(&axis);
-  if (normal) {
-    *normal = Vec3d::Zero();
-    (*normal)[axis] = p[axis] < c[axis] ? -1.0 : 1.0;
-  }
-  return q[axis];
-}
-
 // The distance field a solid's samples read: the domain's (voxel_ratio dx,
 // shared with MPM objects of the same mesh) unless the samples are finer;
 // then one at the sample spacing, with the samples on its voxel centres.
@@ -242,7 +219,7 @@ CollisionSamples sampleCollision(const ShapeDesc& shape, const DomainDesc& domai
       bool in = true;
       for (int d = 0; d < 3; ++d) in = in && p[d] >= b->min[d] && p[d] < b->max[d];
       if (!in) continue;
-      out.phi.push_back(static_cast<float>(boxDistance(*b, p, &n)));
+      out.phi.push_back(static_cast<float>(boxDistance(toVec(b->min), toVec(b->max), p, &n)));
     } else {
       const auto& s = std::get<SphereDesc>(shape);
       const Vec3d r = p - toVec(s.center);

@@ -86,6 +86,27 @@ TriSurface sphereSurface(const SphereDesc& sd) {
 
 }  // namespace
 
+double boxDistance(const Vec3d& lo, const Vec3d& hi, const Vec3d& p, Vec3d* normal) {
+  const Vec3d c = 0.5 * (lo + hi), half = 0.5 * (hi - lo);
+  const Vec3d q = (p - c).cwiseAbs() - half;
+  const Vec3d outside = q.cwiseMax(0.0);
+  if (outside.squaredNorm() > 0) {
+    if (normal) {
+      Vec3d n = outside;
+      for (int d = 0; d < 3; ++d) n[d] *= p[d] < c[d] ? -1.0 : 1.0;
+      *normal = n.normalized();
+    }
+    return outside.norm();
+  }
+  int axis = 0;
+  q.maxCoeff(&axis);
+  if (normal) {
+    *normal = Vec3d::Zero();
+    (*normal)[axis] = p[axis] < c[axis] ? -1.0 : 1.0;
+  }
+  return q[axis];
+}
+
 TriSurface primitiveSurface(const ShapeDesc& shape) {
   if (const auto* b = std::get_if<BoxDesc>(&shape)) return boxSurface(*b);
   if (const auto* s = std::get_if<SphereDesc>(&shape)) return sphereSurface(*s);

@@ -53,6 +53,10 @@ struct SolidSamples {
 using SolidSampler = std::function<SolidSamples(const ShapeDesc& shape, const DomainDesc& domain,
                                                 double density, double spacing)>;
 
+// Signed distance from p to the box [lo, hi] and its outward normal (exact;
+// inside: to the nearest face, whose normal it takes).
+double boxDistance(const Vec3d& lo, const Vec3d& hi, const Vec3d& p, Vec3d* normal);
+
 // Surfaces of the primitive shapes: a box's 12 triangles, a sphere as an
 // icosphere of 1280 triangles (within 0.3% of the radius).
 TriSurface primitiveSurface(const ShapeDesc& shape);

@@ -42,9 +42,34 @@ SolidSamples sampleSolid(const SceneDesc& scene, size_t i, const SolidSampler& s
   return s;
 }
 
+// A fixed box's faces that lie on (or beyond) a domain wall are no surface:
+// material cannot reach them, and a sample near one must take its distance
+// and normal from the box's other faces. Otherwise a plate spanning the
+// domain wall to wall has normals along the wall next to it, and material
+// sliding down the wall slips past the plate there.
+void closeWallFaces(const ShapeDesc& shape, const DomainDesc& domain, CollisionSamples& s) {
+  const auto* b = std::get_if<BoxDesc>(&shape);
+  if (!b) return;
+  Vec3d lo = toVec(b->min), hi = toVec(b->max);
+  const double far = 1e3 * (toVec(domain.max) - toVec(domain.min)).maxCoeff();
+  const double tol = 1e-9 * far;
+  bool any = false;
+  for (int d = 0; d < 3; ++d) {
+    if (lo[d] <= domain.min[d] + tol) lo[d] = domain.min[d] - far, any = true;
+    if (hi[d] >= domain.max[d] - tol) hi[d] = domain.max[d] + far, any = true;
+  }
+  if (!any) return;
+  for (size_t q = 0; q < s.size(); ++q) {
+    Vec3d n;
+    s.phi[q] = float(boxDistance(lo, hi, s.x[q].cast<double>(), &n));
+    s.normal[q] = n.cast<float>();
+  }
+}
+
 RigidBody buildRigidBody(const SceneDesc& scene, size_t i, const SolidSampler& sampler) {
   const ObjectDesc& obj = scene.objects[i];
   SolidSamples s = sampleSolid(scene, i, sampler, obj.density);
+  if (obj.fixed) closeWallFaces(obj.shape, scene.domain, s.samples);
   return makeRigidBody(int(i), obj.name, s.samples, std::move(s.surface), obj.fixed, obj.friction,
                        toVec(obj.velocity), toVec(obj.angular_velocity), scene.domain.dx);
 }
