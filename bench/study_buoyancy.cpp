@@ -6,6 +6,13 @@
 // deep (bulk modulus 2e5 Pa), the setups. Prints the slab's bottom,
 // the water level (from the water's volume) and the draft against
 // Archimedes' over time, and a summary line.
+//   --wide        water 0.1 m wide all round the slab (default: 2 cells in z)
+//   --fixed       the slab is fixed: its force is the buoyancy
+//   --settle S    the slab is held in place for S seconds, then released
+//   --drive V     the slab is moved up at V m/s, gravity off (STUDY_GRAVITY=1: on)
+// STUDY_SPHERE=1 puts a sphere of diameter CELLS * 0.02 m in place of the
+// slab; STUDY_SURFACE=1 prints the water surface across the slab and the
+// spread of particle J by layer at the end.
 #include <omp.h>
 
 #include <cmath>
