@@ -90,7 +90,7 @@ std::string checkBodyPly(const std::string& path, const TriSurface& surface) {
 }
 
 // What is wrong with the frame's cache files (empty when they are complete).
-// Fills `states` with the state table's rows of frames 0..frame.
+// Fills `logs` with the body tables' rows up to frame.
 std::string checkFrameCaches(const SceneDesc& scene, const std::string& out_dir, int frame,
                              const World& world, BodyLogs& logs) {
   if (scene.output.ply) {
@@ -190,16 +190,10 @@ void writeFrameBodies(const std::string& out_dir, const World& world, int frame,
     writeBodyPly(bodyMeshPath(out_dir, b.name, frame), b, world.time);
   // The forces of the frame's steps, then the state table last: its rows of
   // a frame say that frame's files are written.
-  if (frame > 0) {
-    std::vector<Vec3d> forces, torques;
-    for (const BodyLoad& l : loads) {
-      forces.push_back(l.force());
-      torques.push_back(l.torque());
-    }
-    logs.forces.record(frame, world.time, world.bodies, forces, torques);
-  } else {
+  if (frame > 0)
+    logs.forces.record(frame, world.time, world.bodies, loads);
+  else
     logs.forces.clear();
-  }
   logs.forces.write(bodyForcesPath(out_dir));
   logs.states.record(frame, world.time, world.bodies);
   logs.states.write(rigidStatesPath(out_dir));

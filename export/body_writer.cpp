@@ -1,7 +1,6 @@
 #include "export/body_writer.h"
 
 #include <algorithm>
-
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
@@ -173,14 +172,15 @@ void RigidStateLog::record(int frame, double time, const std::vector<RigidBody>&
 BodyForceLog::BodyForceLog() : BodyTable("frame,time,name,fx,fy,fz,tx,ty,tz", 1) {}
 
 void BodyForceLog::record(int frame, double time, const std::vector<RigidBody>& bodies,
-                          const std::vector<Vec3d>& forces, const std::vector<Vec3d>& torques) {
+                          const std::vector<BodyLoad>& loads) {
   std::vector<std::string> rows;
   for (size_t k = 0; k < bodies.size(); ++k) {
     std::string row = std::to_string(frame);
     appendNumber(row, time);
     row += "," + bodies[k].name;
-    for (int d = 0; d < 3; ++d) appendNumber(row, forces[k][d]);
-    for (int d = 0; d < 3; ++d) appendNumber(row, torques[k][d]);
+    const Vec3d f = loads[k].force(), t = loads[k].torque();
+    for (int d = 0; d < 3; ++d) appendNumber(row, f[d]);
+    for (int d = 0; d < 3; ++d) appendNumber(row, t[d]);
     rows.push_back(row);
   }
   BodyTable::record(frame, rows);

@@ -13,6 +13,7 @@
 
 #include "sim/elastic_solid.h"
 #include "sim/rigid_body.h"
+#include "sim/solver.h"
 
 namespace triad {
 
@@ -83,9 +84,9 @@ class RigidStateLog : public BodyTable {
 class BodyForceLog : public BodyTable {
  public:
   BodyForceLog();
-  // forces[k], torques[k] for bodies[k].
+  // loads[k] (the solver's, over the frame) for bodies[k].
   void record(int frame, double time, const std::vector<RigidBody>& bodies,
-              const std::vector<Vec3d>& forces, const std::vector<Vec3d>& torques);
+              const std::vector<BodyLoad>& loads);
 };
 
 // One CSV row (no newline) of body state at `time`: centre of mass,
