@@ -1,5 +1,5 @@
 // Buoyancy of thin and submerged solids, measured against Archimedes:
-//   study_buoyancy [--start rest|submerged|dropped] [--thick CELLS]
+//   study_buoyancy [--start rest|submerged|dropped|film] [--thick CELLS]
 //                  [--ratio RHO/RHO_WATER] [--dx M] [--time S]
 //                  [--kind rigid|elastic] [--solver JSON] [--trace]
 // A slab 0.30 m long, CELLS * 0.02 m thick and 0.12 m deep in water 0.2 m
@@ -10,6 +10,12 @@
 //   --fixed       the slab is fixed: its force is the buoyancy
 //   --settle S    the slab is held in place for S seconds, then released
 //   --drive V     the slab is moved up at V m/s, gravity off (STUDY_GRAVITY=1: on)
+//   --start film  a block of water (STUDY_FILM_H m deep, default 0.04) on
+//                 the slab's top (fixed: 0.12 m up; else on the floor); prints
+//                 how much of it is still on the slab and how high it stands
+// STUDY_BULK sets the water's bulk modulus (default 2e5 Pa); STUDY_FLOW=1
+// prints the water's flux down past the slab against what an
+// incompressible fluid must carry, and the water's speed under and over it.
 // STUDY_SPHERE=1 puts a sphere of diameter CELLS * 0.02 m in place of the
 // slab; STUDY_SURFACE=1 prints the water surface across the slab and the
 // spread of particle J by layer at the end.
@@ -92,6 +98,11 @@ int main(int argc, char** argv) {
     water = {box({0, 0, 0}, {kX, y0, kZ}), box({0, y1, 0}, {kX, top, kZ}),
              box({0, y0, 0}, {kSx0, y1, kZ}), box({kSx1, y0, 0}, {kX, y1, kZ}),
              box({kSx0, y0, 0}, {kSx1, y1, kSz0}), box({kSx0, y0, kSz1}, {kSx1, y1, kZ})};
+  } else if (s.start == "film") {  // a block of water on the slab's top, spreading off it
+    y0 = s.fixed ? 0.12 : 0.0;
+    const double film = getenv("STUDY_FILM_H") ? std::stod(getenv("STUDY_FILM_H")) : 0.04;
+    water = {box({0.15, y0 + t, 0.06}, {0.35, y0 + t + film, 0.14})};
+    if (getenv("STUDY_FLOOR")) water = {box({0.15, 0, 0.06}, {0.35, 0.04, 0.14})};
   } else {  // dropped: 1 cm onto a block of water that slumps
     water = {box({0, 0, 0}, {0.3, 0.3, kZ})};
     y0 = 0.31;
@@ -103,7 +114,7 @@ int main(int argc, char** argv) {
             {"domain", {{"min", {0, 0, 0}}, {"max", {kX, kY, kZ}}, {"dx", s.dx}}},
             {"solver", s.solver},
             {"materials",
-             {{"water", {{"model", "water"}, {"density", 1000}, {"bulk_modulus", 2e5}}},
+             {{"water", {{"model", "water"}, {"density", 1000}, {"bulk_modulus", getenv("STUDY_BULK") ? std::stod(getenv("STUDY_BULK")) : 2e5}}},
               {"solid",
                {{"model", "fixed_corotated"}, {"density", rho}, {"youngs_modulus", 3e5},
                 {"poisson_ratio", 0.3}}}}},
@@ -208,8 +219,50 @@ int main(int argc, char** argv) {
       }
     }
     for (int m = 0; m < 4; ++m) ps[m] /= std::max(1, pn[m]);
+    if (getenv("STUDY_FLOW")) {
+      // Downward water flux through the slab's mid-plane outside it, against
+      // what an incompressible fluid must carry (the slab's rise times its area).
+      double flux = 0, vin = 0, vover = 0;
+      int nin = 0, nover = 0;
+      const double ym = b + 0.5 * t;
+      for (const triad::ParticleSet& set : w.sets) {
+        if (!std::get_if<triad::Water<float>>(&set.model)) continue;
+        for (size_t i = 0; i < set.size(); ++i) {
+          const triad::Vec3f& x = set.x[i];
+          const bool foot = x.x() > sx0 && x.x() < sx1 && x.z() > kSz0 && x.z() < kSz1;
+          if (std::abs(x.y() - ym) < 0.5 * s.dx && !foot) flux += set.v[i].y() * set.volume / s.dx;
+          if (foot && x.y() > b - 1.0 * s.dx && x.y() < b) { vin += set.v[i].y(); ++nin; }
+          if (foot && x.y() > b + t && x.y() < b + t + s.dx) { vover += set.v[i].y(); ++nover; }
+        }
+      }
+      const double vb = w.bodies.empty() ? 0.0 : w.bodies[0].state.v.y();
+      std::printf("  flux through gaps %.5f m3/s (needed %.5f); water v under %.3f over %.3f body %.3f\n",
+                  flux, -vb * slab_area, vin / std::max(nin, 1), vover / std::max(nover, 1), vb);
+    }
+
     if (s.trace)
       std::printf("  p under %.0f (far %.0f) over %.0f (far %.0f)\n", ps[0], ps[1], ps[2], ps[3]);
+    if (s.start == "film") {
+      size_t on = 0, all = 0;
+      double fvx = 0, fvy = 0, fj = 0;
+      double hmax = 0;
+      for (const triad::ParticleSet& set : w.sets)
+        for (size_t i = 0; i < set.size(); ++i) {
+          if (set.object[i] == slab_object) continue;
+          ++all;
+          const triad::Vec3f& x = set.x[i];
+          if (x.y() > b + t - 0.5 * s.dx && x.x() > sx0 && x.x() < sx1 && x.z() > kSz0 && x.z() < kSz1) { ++on; fvx += std::abs(set.v[i].x()); fvy += set.v[i].y(); fj += set.volumeRatio(i); hmax = std::max(hmax, double(x.y()) - b - t); }
+        }
+      if (getenv("STUDY_FLOOR")) {
+        on = 0; hmax = 0;
+        for (const triad::ParticleSet& set : w.sets)
+          for (size_t i = 0; i < set.size(); ++i) {
+            const triad::Vec3f& x = set.x[i];
+            if (set.object[i] != slab_object && x.x() > sx0 && x.x() < sx1 && x.z() > kSz0 && x.z() < kSz1) { ++on; hmax = std::max(hmax, double(x.y())); }
+          }
+      }
+      std::printf("  film: %.3f of the water on the slab, highest %.4f above it, |vx| %.3f vy %.3f J %.4f\n", double(on) / double(all), hmax, fvx / on, fvy / on, fj / on);
+    }
     if (s.trace)
       std::printf("t %.2f bottom %.4f level %.4f draft %.4f (%+.2f dx) v %.3f F/mg %.3f\n",
                   k / 20.0, b, l, d, (d - draft) / s.dx,

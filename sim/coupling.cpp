@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 
 namespace triad {
@@ -9,6 +10,9 @@ namespace triad {
 namespace {
 
 constexpr int32_t kNoSlot = -1;
+
+// A node no solid reaches: no mass, and as far outside as can be.
+const GridCoupling::SolidNode kEmptyNode{0, {0, 0, 0}, {0, 0, 0}, 0, 0, -1e30f, 0, 0, 0};
 
 // Node offset inside a grid block.
 inline int localNode(int x, int y, int z) {
@@ -24,7 +28,7 @@ inline int neighbourOf(const Vec3i& l, int a, int b, int c) {
 }
 
 
-// Calls f(w, slot node index) for every node of point x's quadratic stencil
+// Calls f(w, slot node index, node - x in cells) for every node of point x's quadratic stencil
 // that lies in one of base block blk's eight grid blocks with a slot.
 template <class Block, class F>
 void forStencil(const Block& blk, const Vec3f& x, const TransferParams& p, F&& f) {
@@ -37,7 +41,8 @@ void forStencil(const Block& blk, const Vec3f& x, const TransferParams& p, F&& f
         const int32_t slot = blk.slot[neighbourOf(l, a, b, c)];
         if (slot == kNoSlot) continue;
         f(st.w[0][a] * st.w[1][b] * st.w[2][c],
-          size_t(slot) * kBlockNodes + localNode(l.x() + a, l.y() + b, l.z() + c));
+          size_t(slot) * kBlockNodes + localNode(l.x() + a, l.y() + b, l.z() + c),
+          Vec3f(float(a) - st.fx[0], float(b) - st.fx[1], float(c) - st.fx[2]));
       }
 }
 
@@ -48,6 +53,7 @@ void SolidPoints::clear() {
   v.clear();
   point_mass.clear();
   n.clear();
+  phi.clear();
   dv.clear();
   begin.clear();
   mass.clear();
@@ -161,7 +167,7 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
       ++f;
     }
   }
-  nodes_.assign(slot_block_.size() * kBlockNodes, SolidNode{0, {0, 0, 0}, {0, 0, 0}, 0, 0, 0, 0});
+  nodes_.assign(slot_block_.size() * kBlockNodes, kEmptyNode);
   for (const auto& [slot, f] : fixed_copy)
     std::copy_n(&fixed_nodes_[f * kBlockNodes], kBlockNodes, &nodes_[size_t(slot) * kBlockNodes]);
   for (auto& c : colour_blocks_) c.clear();
@@ -184,15 +190,18 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
           const Vec3f& v = pts.v[q];
           const Vec3f& nq = pts.n[q];
           const int32_t tag = int32_t(s) + 1;
-          forStencil(blk, pts.x[q], p, [&](float w, size_t i) {
+          const float phi = pts.phi[q];
+          forStencil(blk, pts.x[q], p, [&](float w, size_t i, const Vec3f& r) {
             SolidNode& g = nodes_[i];
             g.m += w * m;
+            g.phi = std::max(g.phi, phi + p.dx * nq.dot(r));
             for (int d = 0; d < 3; ++d) {
               g.p[d] += w * m * v[d];
               g.n[d] += w * nq[d];
             }
             g.mu += w * m * mu;
             g.solid = g.solid == 0 || g.solid == tag ? tag : -1;
+            g.owner = g.owner == 0 || g.owner == tag ? tag : -1;
           });
         }
       }
@@ -219,16 +228,19 @@ void GridCoupling::buildFixed(const SolidPoints& pts, const TransferParams& p) {
             const uint64_t key =
                 packBlock(Vec3i(blockOf(node.x()), blockOf(node.y()), blockOf(node.z())));
             std::vector<SolidNode>& blk = blocks[key];
-            if (blk.empty()) blk.assign(kBlockNodes, SolidNode{0, {0, 0, 0}, {0, 0, 0}, 0, 0, 0, 0});
+            if (blk.empty()) blk.assign(kBlockNodes, kEmptyNode);
             SolidNode& g = blk[localNode(node.x(), node.y(), node.z())];
             const float w = st.w[0][a] * st.w[1][b] * st.w[2][c];
             g.m += w * m;
+            const Vec3f r(float(a) - st.fx[0], float(b) - st.fx[1], float(c) - st.fx[2]);
+            g.phi = std::max(g.phi, pts.phi[q] + p.dx * pts.n[q].dot(r));
             for (int d = 0; d < 3; ++d) g.n[d] += w * pts.n[q][d];
             g.mu += w * m * mu;
             g.fixed_m += w * m;
             g.solid = -1;  // several or none moving: never a body's node
             const int32_t tag = int32_t(s) + 1;
             g.fixed_solid = g.fixed_solid == 0 || g.fixed_solid == tag ? tag : -1;
+            g.owner = g.owner == 0 || g.owner == tag ? tag : -1;
           }
     }
   }
@@ -264,6 +276,17 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
   const bool before = solver_.contact_velocity == ContactVelocity::BeforeUpdate;
   const bool combined = solver_.solid_readback == SolidReadback::Combined;
   const Vec3f node0 = p.shifted_origin - Vec3f::Constant(0.5f * p.dx);
+  // A node takes part when both grids have mass there and, with three
+  // grids, it lies no further outside its solid than the contact reach
+  // (solver.contact_reach). A node of several solids has one distance per
+  // solid, not one in all: it always takes part.
+  // 1.5 cells is the stencil's reach: every node the samples touch.
+  const float reach = single || solver_.contact_reach >= 1.5
+                          ? std::numeric_limits<float>::infinity()
+                          : float(solver_.contact_reach) * p.dx;
+  auto inContact = [&](const SolidNode& sn, const GridNode& g) {
+    return sn.m > 0.0f && g.m > 0.0f && (sn.phi <= reach || sn.owner < 0);
+  };
 
   // The shared nodes, in slot order: counted per slot, then filled.
   const int64_t slots = int64_t(slot_block_.size());
@@ -272,8 +295,7 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
   for (int64_t s = 0; s < slots; ++s) {
     uint32_t count = 0;
     for (int k = 0; k < kBlockNodes; ++k)
-      count += nodes_[size_t(s) * kBlockNodes + k].m > 0.0f &&
-               grid[size_t(slot_block_[s]) * kBlockNodes + k].m > 0.0f;
+      count += inContact(nodes_[size_t(s) * kBlockNodes + k], grid[size_t(slot_block_[s]) * kBlockNodes + k]);
     first[size_t(s) + 1] = count;
   }
   for (int64_t s = 0; s < slots; ++s) first[size_t(s) + 1] += first[size_t(s)];
@@ -286,7 +308,7 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
       const size_t i = size_t(s) * kBlockNodes + k;
       const SolidNode& sn = nodes_[i];
       const GridNode& g = grid[gb * kBlockNodes + k];
-      if (sn.m <= 0.0f || g.m <= 0.0f) continue;
+      if (!inContact(sn, g)) continue;
       Shared& c = shared_[out++];
       c.P = c.T = c.dP = Vec3f::Zero();
       c.lambda = 0.0f;
@@ -450,7 +472,7 @@ void GridCoupling::gather(SolidPoints& pts, const TransferParams& p) const {
     for (uint32_t o = blk.first; o < blk.last; o += 3) {
       for (uint32_t q = order_[o]; q < order_[o + 1]; ++q) {
         Vec3f dv = Vec3f::Zero();
-        forStencil(blk, pts.x[q], p, [&](float w, size_t i) { dv += w * delta_[i]; });
+        forStencil(blk, pts.x[q], p, [&](float w, size_t i, const Vec3f&) { dv += w * delta_[i]; });
         pts.dv[q] = dv;
       }
     }

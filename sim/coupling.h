@@ -22,6 +22,7 @@ struct SolidPoints {
   std::vector<Vec3f> x;   // position at the start of the step
   std::vector<Vec3f> v;   // velocity v_q* from the solid's own solver
   std::vector<Vec3f> n;   // outward unit normal
+  std::vector<float> phi;  // signed distance to the solid's surface (negative inside)
   std::vector<Vec3f> dv;  // out (gather): velocity change the grid gave the point
   std::vector<float> point_mass;  // mass of each point, kg
   std::vector<size_t> begin;
@@ -87,14 +88,21 @@ class GridCoupling {
   bool fixedBuilt() const { return fixed_built_; }
   size_t bytes() const;
 
- private:
+ public:
   // Solid data on one node: sums of w m, w m v, w n, w m mu, w m [fixed],
   // which moving solid it holds and which fixed one (solid + 1; 0 none
   // yet; -1 several).
   struct SolidNode {
     float m, p[3], n[3], mu, fixed_m;
+    // Signed distance to the solids' surface, extrapolated from each sample
+    // along its normal (phi_q + n_q . (x_i - x_q)) and the largest taken: a
+    // body's own distance inside it and across its nearest face, exact for
+    // plane faces however thin the body, where summed normals cancel.
+    float phi;
     int32_t solid, fixed_solid;
+    int32_t owner;  // the one solid of any kind it holds (solid + 1; 0 none; -1 several)
   };
+ private:
   // A node with both MPM and solid mass, during the collision.
   struct Shared {
     uint32_t i, g;        // slot node, grid node

@@ -54,6 +54,10 @@ struct SolverDesc {
   ContactVelocity contact_velocity = ContactVelocity::AfterUpdate;
   SolidReadback solid_readback = SolidReadback::MomentumConserving;
   RigidNodeMass rigid_node_mass = RigidNodeMass::Node;
+  // Three grids: how far outside a rigid body's surface, in cells, a node
+  // still takes part in the contact (its signed distance, extrapolated from
+  // the samples). 1.5 takes every node the samples' stencils reach.
+  double contact_reach = 1.5;
   int coupling_iterations = 30;  // most Jacobi passes of the grid collision with rigid bodies
   int contact_iterations = 20;  // sequential-impulse passes for rigid contacts
 };

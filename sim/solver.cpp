@@ -199,6 +199,7 @@ void Solver::predictSolids(double dt) {
   if (coupling_->fixedBuilt() && !shrunk_) {
     shrunk_ = true;
     for (auto* a : {&points_.x, &points_.v, &points_.n, &points_.dv}) a->shrink_to_fit();
+    points_.phi.shrink_to_fit();
   }
   const Vec3d g(world_.scene.gravity[0], world_.scene.gravity[1], world_.scene.gravity[2]);
   for (RigidBody& b : world_.bodies) {
@@ -217,6 +218,7 @@ void Solver::predictSolids(double dt) {
     points_.x.resize(first + n);
     points_.v.resize(first + n);
     points_.n.resize(first + n);
+    points_.phi.insert(points_.phi.end(), b.phi.begin(), b.phi.end());
     points_.point_mass.resize(first + n, b.sample_mass);
     const Mat3f R = b.rotation().cast<float>();
     const Vec3f c = b.state.x.cast<float>(), v = b.state.v.cast<float>();
@@ -275,6 +277,9 @@ void Solver::predictSolids(double dt) {
       points_.x.push_back(fem.x[i].cast<float>());
       points_.v.push_back(fem.v[i].cast<float>());
       points_.n.push_back(e.normal(i).cast<float>());
+      // Elastic nodes carry no distance: every node their stencils reach
+      // takes part in the contact, whatever the reach.
+      points_.phi.push_back(-std::numeric_limits<float>::infinity());
       points_.point_mass.push_back(float(fem.mass[i]));
     }
   }

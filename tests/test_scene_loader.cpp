@@ -428,6 +428,19 @@ TEST_F(SceneLoaderTest, FlipRatioOnlyWithFlipTransfer) {
                        {"solver.flip_ratio", "transfer is \"flip\""}));
 }
 
+TEST_F(SceneLoaderTest, ContactReachIsCellsWithinTheStencilAndOnlyWithThreeGrids) {
+  EXPECT_EQ(load(exampleScene()).solver.contact_reach, 1.5);
+  EXPECT_EQ(load(with(exampleScene(), "/solver/contact_reach", 0.75)).solver.contact_reach, 0.75);
+  EXPECT_TRUE(contains(error(with(exampleScene(), "/solver/contact_reach", 2.0)),
+                       {"solver.contact_reach", "[0, 1.5]"}));
+  EXPECT_TRUE(contains(error(with(exampleScene(), "/solver/contact_reach", -0.5)),
+                       {"solver.contact_reach"}));
+  json single = with(exampleScene(), "/solver/coupling", "single_grid");
+  EXPECT_TRUE(contains(error(with(single, "/solver/contact_reach", 0.5)),
+                       {"solver.contact_reach", "coupling is \"three_grid\"",
+                        "\"single_grid\""}));
+}
+
 TEST_F(SceneLoaderTest, MisspeltChoiceSuggestsTheClosest) {
   EXPECT_TRUE(contains(error(with(exampleScene(), "/domain/boundary/type", "slpi")),
                        {"domain.boundary.type", "\"slip\", \"sticky\", \"separate\"",
