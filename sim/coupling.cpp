@@ -338,6 +338,8 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
   // What fixed solids take: the opposite of their nodes' impulses.
   fixed_impulse_.assign(pts.solids(), Vec3d::Zero());
   fixed_moment_.assign(pts.solids(), Vec3d::Zero());
+  body_impulse_.assign(pts.solids(), Vec3d::Zero());
+  body_moment_.assign(pts.solids(), Vec3d::Zero());
 
   if (single) {
     // One grid: both sides move with the combined velocity.
@@ -449,8 +451,15 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
     GridNode& g = grid[c.g];
     const Vec3f v = c.v_mpm + c.P / c.m_mpm;
     for (int d = 0; d < 3; ++d) g.v[d] = v[d];
-    // The opposite impulse goes to the solid's node.
-    if (!combined && !c.fixed) delta_[c.i] = -c.P / c.m_vol;
+    // The opposite impulse goes to the solid: a rigid body's own node to the
+    // body, at the node; any other solid's node to its points (gather).
+    if (!combined && c.solid >= 0) {
+      const Vec3d j = (-c.P).cast<double>();
+      body_impulse_[size_t(c.solid)] += j;
+      body_moment_[size_t(c.solid)] += c.x.cast<double>().cross(j);
+    } else if (!combined && !c.fixed) {
+      delta_[c.i] = -c.P / c.m_vol;
+    }
     addFixedLoad(c, -c.P);
   }
   stats_.collisions = collisions;

@@ -83,6 +83,13 @@ class GridCoupling {
   // moment about the world origin (moving solids' come back through gather).
   const std::vector<Vec3d>& fixedImpulse() const { return fixed_impulse_; }
   const std::vector<Vec3d>& fixedMoment() const { return fixed_moment_; }
+  // Per solid, for moving rigid bodies with the momentum-conserving
+  // read-back: the impulse its own nodes gave it and its moment about the
+  // world origin, each node's at the node, where the material took the
+  // opposite. These nodes leave nothing for gather(), so angular momentum is
+  // kept exactly; nodes several solids share still read back through it.
+  const std::vector<Vec3d>& bodyImpulse() const { return body_impulse_; }
+  const std::vector<Vec3d>& bodyMoment() const { return body_moment_; }
   // Whether fixed solids have been scattered once for good: their points
   // are no longer needed.
   bool fixedBuilt() const { return fixed_built_; }
@@ -143,6 +150,7 @@ class GridCoupling {
   const std::vector<uint64_t>* layout_keys_ = nullptr;  // the grid's block keys
   CouplingStats stats_;
   std::vector<Vec3d> fixed_impulse_, fixed_moment_;
+  std::vector<Vec3d> body_impulse_, body_moment_;
 };
 
 }  // namespace triad

@@ -446,10 +446,17 @@ void Solver::advanceSolids(double dt) {
       dp += dv;
       dl += (points_.x[q].cast<double>() - b.state.x).cross(dv);
     }
-    b.state.v += dp * (double(b.sample_mass) / b.mass);
-    b.state.L += dl * double(b.sample_mass);
-    loads_[s].impulse += dp * double(b.sample_mass);
-    loads_[s].moment += dl * double(b.sample_mass);
+    // Plus what this step's collision gave the body directly, node by node
+    // (no collision runs without MPM particles).
+    const bool collided = has_particles_ && s < coupling_->bodyImpulse().size();
+    const Vec3d j = collided ? coupling_->bodyImpulse()[s] : Vec3d::Zero();
+    const Vec3d m = collided ? Vec3d(coupling_->bodyMoment()[s] - b.state.x.cross(j)) : Vec3d::Zero();
+    dp = dp * double(b.sample_mass) + j;
+    dl = dl * double(b.sample_mass) + m;
+    b.state.v += dp / b.mass;
+    b.state.L += dl;
+    loads_[s].impulse += dp;
+    loads_[s].moment += dl;
   }
   contact_stats_ = resolveContacts(world_.bodies, contact_, dt);
   for (RigidBody& b : world_.bodies) {
