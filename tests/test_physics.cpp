@@ -162,31 +162,41 @@ double heapAngle(const World& w, double cx, double cz, double dr) {
   return std::atan(std::abs(slope)) * 180.0 / M_PI;
 }
 
-// A low sand column slumps into a heap whose flanks come to rest no steeper
-// than the friction angle, and steeper the higher the angle (a fluid would
-// spread flat). MPM heaps stand below phi at this resolution (about 0.65 to
-// 0.9 phi measured), so the lower bound is 0.55 phi.
-class SandHeap : public ::testing::TestWithParam<double> {};
-
-TEST_P(SandHeap, ComesToRestNoSteeperThanFrictionAngle) {
-  const double phi = GetParam();
-  json j = test::baseScene("sand_heap", {0.6, 0.3, 0.6}, 0.015);
+// A low sand column slumped into a heap after 0.75 s: the angle of its
+// flanks, and the fastest particle's speed.
+std::pair<double, double> heapOf(double phi) {
+  json j = test::baseScene("sand_heap_" + std::to_string(int(phi)), {0.6, 0.3, 0.6}, 0.015);
   j["domain"]["boundary"] = {{"type", "slip"}, {"friction", 0.6}};
   j["materials"]["sand"] = sand(1e5, phi);
   j["objects"].push_back(mpmObject("column", "sand", box({0.2, 0.0, 0.2}, {0.4, 0.1, 0.4})));
-  World w = test::loadWorld(test::tempDir("sand_heap"), j);
+  World w = test::loadWorld(test::tempDir("sand_heap_" + std::to_string(int(phi))), j);
   Solver solver(w);
   solver.advanceTo(0.75);
   double max_speed = 0.0;
   for (const ParticleSet& s : w.sets)
     for (size_t i = 0; i < s.size(); ++i) max_speed = std::max(max_speed, double(s.v[i].norm()));
-  EXPECT_LT(max_speed, 0.02) << "the heap has not come to rest";
-  const double angle = heapAngle(w, 0.3, 0.3, 0.015);
-  EXPECT_LE(angle, phi + 1.0);
-  EXPECT_GE(angle, 0.55 * phi) << "sand flowed out like a fluid";
+  return {heapAngle(w, 0.3, 0.3, 0.015), max_speed};
 }
 
-INSTANTIATE_TEST_SUITE_P(FrictionAngles, SandHeap, ::testing::Values(20.0, 35.0));
+// The heap's flanks come to rest no steeper than the friction angle, and
+// steeper the higher the angle (a fluid would spread flat). MPM heaps stand
+// below phi at this resolution, so each alone is bounded loosely (0.55 phi
+// to phi + 1 degree); what pins the friction angle's effect is the
+// difference between the two heaps, asserted at half the measured one.
+// Measured: 20 degrees -> 17.8, 35 -> 23.2 (5.4 apart); with the model's
+// angle fixed at 25 whatever the scene says, the two tie and this fails.
+TEST(SandHeap, AngleFollowsTheFrictionAngle) {
+  const auto [low, low_speed] = heapOf(20.0);
+  const auto [high, high_speed] = heapOf(35.0);
+  std::printf("heap angles: phi 20 -> %.1f deg, phi 35 -> %.1f deg\n", low, high);
+  for (const auto& [phi, angle, speed] :
+       {std::tuple{20.0, low, low_speed}, std::tuple{35.0, high, high_speed}}) {
+    EXPECT_LT(speed, 0.02) << "the heap for phi " << phi << " has not come to rest";
+    EXPECT_LE(angle, phi + 1.0);
+    EXPECT_GE(angle, 0.55 * phi) << "sand flowed out like a fluid";
+  }
+  EXPECT_GT(high - low, 2.7) << "the heap's angle does not follow the friction angle";
+}
 
 }  // namespace
 }  // namespace triad
