@@ -284,12 +284,15 @@ TEST(Coupling, MomentumDriftOfEachVariant) {
   const double combined = momentumDrift("combined", "after_update", "combined");
   std::printf("momentum drift: conserving %.2e, conserving+before_update %.2e, combined %.2e\n",
               conserving, conserving_before, combined);
-  // Exact up to the particles pushed back out of the box (no reaction).
-  EXPECT_LT(conserving, 2e-3);
-  EXPECT_LT(conserving_before, 2e-3);
-  // Reading the pre-collision combined grid is not conservative.
-  EXPECT_GT(combined, 5 * conserving);
-  EXPECT_LT(combined, 1.0);
+  // Exact up to float sums (measured 1.6e-7 and 1.9e-7; particles pushed
+  // back out of the box give it their momentum too). The bound is 50 times
+  // that and 40 times below one sand particle's share of it (1/2304).
+  EXPECT_LT(conserving, 1e-5);
+  EXPECT_LT(conserving_before, 1e-5);
+  // Reading the pre-collision combined grid is not conservative: the box
+  // feels the sand as if stuck to it. Measured 0.72.
+  EXPECT_GT(combined, 0.3);
+  EXPECT_LT(combined, 0.9);
 }
 
 // Density ratios from 1:1000 to 1000:1, balls thrown into sand at 20 m/s:
