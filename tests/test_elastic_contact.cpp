@@ -191,8 +191,11 @@ TEST(ImplicitContact, StiffCubeOnSandKeepsSandOut) {
   EXPECT_EQ(deep, 0);
   EXPECT_LT(worst, 2e-3);  // 2% of its side: near rigid, as E = 1e7 is
   const Extent e = extent(b);
-  EXPECT_GT(e.lo.y(), 0.06);
-  EXPECT_LT(e.lo.y(), 0.105);
+  std::printf("stiff implicit cube on sand: bottom at %.4f m (sand surface 0.100)\n", e.lo.y());
+  // The known defect, pinned: it rests 0.031 m (0.62 dx) into the sand, where
+  // the issue asks for at most 0.25 dx. Within 0.005 m of the measurement, so
+  // that a fix (0.100) or a worse sinking fails here and this is updated.
+  EXPECT_NEAR(e.lo.y(), 0.069, 0.005);
 }
 
 // Nodes of p well inside q's tetrahedra.
