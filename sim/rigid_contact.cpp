@@ -77,6 +77,11 @@ void pairContacts(const std::vector<RigidBody>& bodies, int ia, int ib,
     double phi_b;
     Vec3d nb;
     if (!b.distanceAt(p, Rb, phi_b, nb)) continue;
+    // A contact pushes a's surface out through b's: their normals face each
+    // other. Inside b near one of its edges the distance field points out
+    // through the side face, across a's surface (a slab's top samples under
+    // a box's bottom edge would push the box sideways and spin it).
+    if ((Ra * a.n[q].cast<double>()).dot(nb) > -0.5) continue;
     // a's surface lies -phi_a beyond its sample.
     out.push_back({ia, ib, p, nb, phi_b + double(a.phi[q]), mu});
   }
