@@ -3,6 +3,8 @@
 // crash. Small scenes: the whole file runs in seconds.
 #include <gtest/gtest.h>
 
+#include <cstdio>
+
 #include <cmath>
 
 #include "scene_fixture.h"
@@ -24,9 +26,28 @@ json mpm(const json& shape, const std::array<double, 3>& v = {0, 0, 0}) {
   return {{"name", "body"}, {"kind", "mpm"}, {"material", "m"}, {"shape", shape}, {"velocity", v}};
 }
 
-// Everything finite, inside the domain (walls clamp), and the centre of
-// mass not above where it started plus what the initial speed allows.
-void expectSane(const World& w, const std::string& tag) {
+// Kinetic plus potential energy of everything that moves: MPM particles
+// (their velocities; APIC's affine part would only add) and rigid bodies
+// (translation and spin).
+double mechanicalEnergy(const World& w) {
+  const Vec3d g(w.scene.gravity[0], w.scene.gravity[1], w.scene.gravity[2]);
+  double e = 0.0;
+  for (const ParticleSet& s : w.sets)
+    for (size_t i = 0; i < s.size(); ++i)
+      e += double(s.mass) * (0.5 * s.v[i].cast<double>().squaredNorm() - g.dot(s.x[i].cast<double>()));
+  for (const RigidBody& b : w.bodies)
+    if (!b.fixed)
+      e += 0.5 * b.mass * b.state.v.squaredNorm() + 0.5 * b.omega().dot(b.state.L) -
+           b.mass * g.dot(b.state.x);
+  return e;
+}
+
+// Everything finite, inside the domain (the transfer clamps positions, so
+// this guards the clamp only), and no energy from nowhere: kinetic plus
+// potential energy no more than at the start (e0, with no elastic energy
+// stored then; stored elastic energy and dissipation only lower it), to 1%
+// of the start's kinetic energy and the potential energy's scale.
+void expectSane(const World& w, const std::string& tag, double e0, double scale) {
   const Vec3f lo(float(w.scene.domain.min[0]), float(w.scene.domain.min[1]),
                  float(w.scene.domain.min[2]));
   const Vec3f hi(float(w.scene.domain.max[0]), float(w.scene.domain.max[1]),
@@ -39,6 +60,28 @@ void expectSane(const World& w, const std::string& tag) {
     }
   for (const RigidBody& b : w.bodies)
     ASSERT_TRUE(std::isfinite(b.state.x.sum() + b.state.v.sum() + b.state.L.sum())) << tag;
+  const double e = mechanicalEnergy(w);
+  std::printf("%s: mechanical energy %.4g J, at the start %.4g J\n", tag.c_str(), e, e0);
+  EXPECT_LT(e, e0 + 0.01 * scale) << tag << ": energy from nowhere";
+}
+
+// The energy scale of a world: its kinetic energy plus its weight times the
+// domain's height.
+double energyScale(const World& w) {
+  const Vec3d g(w.scene.gravity[0], w.scene.gravity[1], w.scene.gravity[2]);
+  const double h = w.scene.domain.max[1] - w.scene.domain.min[1];
+  double m = 0.0, k = 0.0;
+  for (const ParticleSet& s : w.sets)
+    for (size_t i = 0; i < s.size(); ++i) {
+      m += s.mass;
+      k += 0.5 * double(s.mass) * s.v[i].cast<double>().squaredNorm();
+    }
+  for (const RigidBody& b : w.bodies)
+    if (!b.fixed) {
+      m += b.mass;
+      k += 0.5 * b.mass * b.state.v.squaredNorm();
+    }
+  return k + m * g.norm() * h;
 }
 
 // A jelly cube dropped on the floor, for a given material.
@@ -49,9 +92,10 @@ void dropCube(const json& material, double t_end, const std::string& tag,
   j["solver"] = solver;
   j["objects"].push_back(mpm(box({0.14, 0.1, 0.14}, {0.26, 0.22, 0.26}), {0, -1, 0}));
   World w = test::loadWorld(test::tempDir("extreme"), j);
+  const double e0 = mechanicalEnergy(w), scale = energyScale(w);
   Solver solver_(w);
   solver_.advanceTo(t_end);
-  expectSane(w, tag);
+  expectSane(w, tag, e0, scale);
   // No energy from nowhere: the centre stays below where the drop's energy
   // (start 0.16 m, 1 m/s down) could lift it.
   EXPECT_LT(test::moments(w).centre.y(), 0.16 + 1.0 / (2 * 9.81) + 0.005) << tag;
@@ -84,9 +128,10 @@ TEST(Extremes, HundredMetresPerSecondImpact) {
                          {"poisson_ratio", 0.3}, {"friction_angle_deg", 30}};
   j["objects"].push_back(mpm(box({0.14, 0.2, 0.14}, {0.26, 0.3, 0.26}), {30, -100, 10}));
   World w = test::loadWorld(test::tempDir("impact100"), j);
+  const double e0 = mechanicalEnergy(w), scale = energyScale(w);
   Solver solver(w);
   solver.advanceTo(0.02);
-  expectSane(w, "100 m/s");
+  expectSane(w, "100 m/s", e0, scale);
 }
 
 // Rigid balls at 100 m/s into sand, 1:1000 and 1000:1 in density: finite,
@@ -102,10 +147,11 @@ TEST(Extremes, RigidBallsAtHundredMetresPerSecond) {
                             {"friction", 0.5}, {"velocity", {20, -100, 0}},
                             {"shape", {{"sphere", {{"center", {0.2, 0.3, 0.2}}, {"radius", 0.04}}}}}});
     World w = test::loadWorld(test::tempDir("rigid100"), j);
+    const double e0 = mechanicalEnergy(w), scale = energyScale(w);
     Solver solver(w);
     solver.advanceTo(0.02);
     const std::string tag = "density ratio " + std::to_string(ratio);
-    expectSane(w, tag);
+    expectSane(w, tag, e0, scale);
     const Vec3d c = w.bodies[0].state.x;
     EXPECT_GT(c.y(), 0.04 - 0.5 * 0.02) << tag;
     EXPECT_LT(c.x(), 0.4 - 0.04 + 0.5 * 0.02) << tag;
@@ -120,9 +166,10 @@ TEST(Extremes, MaterialLeavingTheDomainStaysIn) {
   j["materials"]["m"] = {{"model", "water"}, {"density", 1000}, {"bulk_modulus", 1e5}};
   j["objects"].push_back(mpm(box({0.25, 0.1, 0.1}, {0.35, 0.2, 0.2}), {20, 5, 0}));
   World w = test::loadWorld(test::tempDir("leave"), j);
+  const double e0 = mechanicalEnergy(w), scale = energyScale(w);
   Solver solver(w);
   solver.advanceTo(0.1);
-  expectSane(w, "leaving");
+  expectSane(w, "leaving", e0, scale);
 }
 
 // A domain of 4 cells and one of 2000 cells per axis (sparse: only the
@@ -133,9 +180,10 @@ TEST(Extremes, TinyAndHugeDomainsRelativeToDx) {
     j["materials"]["m"] = jelly(E);
     j["objects"].push_back(mpm(shape));
     World w = test::loadWorld(test::tempDir(name), j);
+    const double e0 = mechanicalEnergy(w), scale = energyScale(w);
     Solver solver(w);
     solver.advanceTo(t);
-    expectSane(w, name);
+    expectSane(w, name, e0, scale);
   };
   run("tiny", 0.08, 1e4, box({0.02, 0.02, 0.02}, {0.06, 0.06, 0.06}), 0.1);
   run("huge", 40, 1e5, box({0.14, 0.1, 0.14}, {0.26, 0.22, 0.26}), 0.05);
