@@ -336,10 +336,8 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
   }
   stats_.shared_nodes = shared_.size();
   // What fixed solids take: the opposite of their nodes' impulses.
-  fixed_impulse_.assign(pts.solids(), Vec3d::Zero());
-  fixed_moment_.assign(pts.solids(), Vec3d::Zero());
-  body_impulse_.assign(pts.solids(), Vec3d::Zero());
-  body_moment_.assign(pts.solids(), Vec3d::Zero());
+  node_impulse_.assign(pts.solids(), Vec3d::Zero());
+  node_moment_.assign(pts.solids(), Vec3d::Zero());
 
   if (single) {
     // One grid: both sides move with the combined velocity.
@@ -347,7 +345,7 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
       const Vec3f vc = c.fixed ? Vec3f(Vec3f::Zero())
                                : Vec3f((c.m_vol * c.v_vol + c.m_mpm * c.v_mpm) / (c.m_vol + c.m_mpm));
       GridNode& g = grid[c.g];
-      if (c.fixed) addFixedLoad(c, c.m_mpm * (c.v_mpm - vc));
+      if (c.fixed) addNodeLoad(c.fixed_solid, c, c.m_mpm * (c.v_mpm - vc));
       for (int d = 0; d < 3; ++d) g.v[d] = vc[d];
       if (!c.fixed) delta_[c.i] = vc - c.v_vol;
     }
@@ -453,24 +451,22 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
     for (int d = 0; d < 3; ++d) g.v[d] = v[d];
     // The opposite impulse goes to the solid: a rigid body's own node to the
     // body, at the node; any other solid's node to its points (gather).
-    if (!combined && c.solid >= 0) {
-      const Vec3d j = (-c.P).cast<double>();
-      body_impulse_[size_t(c.solid)] += j;
-      body_moment_[size_t(c.solid)] += c.x.cast<double>().cross(j);
-    } else if (!combined && !c.fixed) {
+    if (c.fixed)
+      addNodeLoad(c.fixed_solid, c, -c.P);
+    else if (!combined && c.solid >= 0)
+      addNodeLoad(c.solid, c, -c.P);
+    else if (!combined)
       delta_[c.i] = -c.P / c.m_vol;
-    }
-    addFixedLoad(c, -c.P);
   }
   stats_.collisions = collisions;
 }
 
-void GridCoupling::addFixedLoad(const Shared& c, const Vec3f& impulse) {
+void GridCoupling::addNodeLoad(int32_t solid, const Shared& c, const Vec3f& impulse) {
   // A node that several fixed solids share is counted for none of them.
-  if (!c.fixed || c.fixed_solid < 0) return;
+  if (solid < 0) return;
   const Vec3d j = impulse.cast<double>();
-  fixed_impulse_[size_t(c.fixed_solid)] += j;
-  fixed_moment_[size_t(c.fixed_solid)] += c.x.cast<double>().cross(j);
+  node_impulse_[size_t(solid)] += j;
+  node_moment_[size_t(solid)] += c.x.cast<double>().cross(j);
 }
 
 void GridCoupling::gather(SolidPoints& pts, const TransferParams& p) const {

@@ -79,23 +79,19 @@ class GridCoupling {
   void gather(SolidPoints& points, const TransferParams& p) const;
 
   const CouplingStats& stats() const { return stats_; }
-  // Per solid, the impulse the last collide() gave fixed solids, and its
-  // moment about the world origin (moving solids' come back through gather).
-  const std::vector<Vec3d>& fixedImpulse() const { return fixed_impulse_; }
-  const std::vector<Vec3d>& fixedMoment() const { return fixed_moment_; }
-  // Per solid, for moving rigid bodies with the momentum-conserving
-  // read-back: the impulse its own nodes gave it and its moment about the
-  // world origin, each node's at the node, where the material took the
-  // opposite. These nodes leave nothing for gather(), so angular momentum is
-  // kept exactly; nodes several solids share still read back through it.
-  const std::vector<Vec3d>& bodyImpulse() const { return body_impulse_; }
-  const std::vector<Vec3d>& bodyMoment() const { return body_moment_; }
+  // Per solid, the impulse the last collide() gave it at its own nodes, and
+  // its moment about the world origin, each node's at the node, where the
+  // material took the opposite: for fixed solids, and for moving rigid
+  // bodies with the momentum-conserving read-back (their nodes then leave
+  // nothing for gather(), so angular momentum is kept exactly). Nodes that
+  // several solids share, and elastic solids, read back through gather().
+  const std::vector<Vec3d>& nodeImpulse() const { return node_impulse_; }
+  const std::vector<Vec3d>& nodeMoment() const { return node_moment_; }
   // Whether fixed solids have been scattered once for good: their points
   // are no longer needed.
   bool fixedBuilt() const { return fixed_built_; }
   size_t bytes() const;
 
- public:
   // Solid data on one node: sums of w m, w m v, w n, w m mu, w m [fixed],
   // which moving solid it holds and which fixed one (solid + 1; 0 none
   // yet; -1 several).
@@ -140,7 +136,7 @@ class GridCoupling {
   std::array<std::vector<uint32_t>, 8> colour_blocks_;
   std::vector<uint64_t> point_key_;    // per point: base block key
   void buildFixed(const SolidPoints& points, const TransferParams& p);
-  void addFixedLoad(const Shared& c, const Vec3f& impulse);
+  void addNodeLoad(int32_t solid, const Shared& c, const Vec3f& impulse);
 
   std::vector<Shared> shared_;
   std::vector<uint32_t> moving_;  // shared nodes of one moving rigid body
@@ -149,8 +145,7 @@ class GridCoupling {
   std::vector<SolidNode> fixed_nodes_;   // their node sums, 64 per block
   const std::vector<uint64_t>* layout_keys_ = nullptr;  // the grid's block keys
   CouplingStats stats_;
-  std::vector<Vec3d> fixed_impulse_, fixed_moment_;
-  std::vector<Vec3d> body_impulse_, body_moment_;
+  std::vector<Vec3d> node_impulse_, node_moment_;
 };
 
 }  // namespace triad

@@ -339,9 +339,9 @@ void Solver::collideSolids() {
   coupling_->collide(grid_, points_, params_);
   for (size_t b = 0; b < world_.bodies.size(); ++b) {
     if (!world_.bodies[b].fixed) continue;
-    const Vec3d j = coupling_->fixedImpulse()[b];
+    const Vec3d j = coupling_->nodeImpulse()[b];
     loads_[b].impulse += j;
-    loads_[b].moment += coupling_->fixedMoment()[b] - world_.bodies[b].state.x.cross(j);
+    loads_[b].moment += coupling_->nodeMoment()[b] - world_.bodies[b].state.x.cross(j);
   }
 }
 
@@ -448,9 +448,9 @@ void Solver::advanceSolids(double dt) {
     }
     // Plus what this step's collision gave the body directly, node by node
     // (no collision runs without MPM particles).
-    const bool collided = has_particles_ && s < coupling_->bodyImpulse().size();
-    const Vec3d j = collided ? coupling_->bodyImpulse()[s] : Vec3d::Zero();
-    const Vec3d m = collided ? Vec3d(coupling_->bodyMoment()[s] - b.state.x.cross(j)) : Vec3d::Zero();
+    const bool collided = has_particles_ && s < coupling_->nodeImpulse().size();
+    const Vec3d j = collided ? coupling_->nodeImpulse()[s] : Vec3d::Zero();
+    const Vec3d m = collided ? Vec3d(coupling_->nodeMoment()[s] - b.state.x.cross(j)) : Vec3d::Zero();
     dp = dp * double(b.sample_mass) + j;
     dl = dl * double(b.sample_mass) + m;
     b.state.v += dp / b.mass;
