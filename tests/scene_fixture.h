@@ -79,4 +79,23 @@ inline Moments moments(const World& w, int object = -1) {
   return m;
 }
 
+// Total angular momentum about o: the rigid bodies' spin and orbit, and the
+// MPM particles', with APIC's affine part m (dx^2/4) axial(C^T - C) for
+// quadratic B-splines (Jiang et al. 2015: what the affine transfer keeps;
+// zero under PIC, whose C is zero).
+inline Vec3d angularMomentum(const World& w, const Vec3d& o) {
+  const double dx = w.scene.domain.dx, d = 0.25 * dx * dx;
+  Vec3d l = Vec3d::Zero();
+  for (const RigidBody& b : w.bodies)
+    if (!b.fixed) l += b.state.L + (b.state.x - o).cross(b.mass * b.state.v);
+  for (const ParticleSet& s : w.sets)
+    for (size_t i = 0; i < s.size(); ++i) {
+      const Vec3d x = s.x[i].cast<double>(), v = s.v[i].cast<double>();
+      const Mat3d c = s.C[i].cast<double>();
+      const Vec3d affine(c(2, 1) - c(1, 2), c(0, 2) - c(2, 0), c(1, 0) - c(0, 1));
+      l += double(s.mass) * ((x - o).cross(v) + d * affine);
+    }
+  return l;
+}
+
 }  // namespace triad::test

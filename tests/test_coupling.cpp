@@ -145,23 +145,6 @@ TEST(Coupling, SlabFloatsAtArchimedesDraft) {
   EXPECT_NEAR(load.force().z(), 0.0, 0.01 * weight);
 }
 
-// Total angular momentum about a point: the body's spin and orbit, and the
-// MPM particles' own, with APIC's affine part m (dx^2/4) axial(C^T - C) for
-// quadratic B-splines (Jiang et al. 2015: what the affine transfer keeps).
-Vec3d angularMomentum(const World& w, const Vec3d& o, double dx) {
-  Vec3d l = Vec3d::Zero();
-  for (const RigidBody& b : w.bodies) l += b.state.L + (b.state.x - o).cross(b.mass * b.state.v);
-  const double d = 0.25 * dx * dx;
-  for (const ParticleSet& s : w.sets)
-    for (size_t i = 0; i < s.size(); ++i) {
-      const Vec3d x = s.x[i].cast<double>(), v = s.v[i].cast<double>();
-      const Mat3d c = s.C[i].cast<double>();
-      const Vec3d affine(c(2, 1) - c(1, 2), c(0, 2) - c(2, 0), c(1, 0) - c(0, 1));
-      l += double(s.mass) * ((x - o).cross(v) + d * affine);
-    }
-  return l;
-}
-
 // Jelly hitting a free box 0.03 m above its centre, gravity off: the box
 // must spin the way the blow turns it (measured -4.0e-3 of the -1.37e-2
 // kg m^2/s the jelly brought; asserted: more than a fifth), and the angular
@@ -179,9 +162,9 @@ TEST(Coupling, OffCentreBlowSpinsABodyAndKeepsAngularMomentum) {
   World w = test::loadWorld(test::tempDir("off_centre"), j);
   Solver solver(w);
   const Vec3d o(0.35, 0.2, 0.15);
-  const Vec3d before = angularMomentum(w, o, dx);
+  const Vec3d before = test::angularMomentum(w, o);
   solver.advanceTo(0.1);
-  const Vec3d after = angularMomentum(w, o, dx);
+  const Vec3d after = test::angularMomentum(w, o);
   const RigidBody& b = w.bodies[0];
   const Vec3d spin = b.state.L;
   std::printf("off-centre blow: L_z before %.4e, after %.4e (box spin %.4e, orbit %.4e), box v %.3f\n",

@@ -82,16 +82,8 @@ double spinKept(const std::string& transfer, double flip_ratio = 0.95) {
       s.v[i] = spin * (s.x[i] - c);
       if (transfer != "pic") s.C[i] = spin;
     }
-  auto lz = [&]() {
-    double l = 0;
-    for (const ParticleSet& s : w.sets)
-      for (size_t i = 0; i < s.size(); ++i) {
-        const Vec3f r = s.x[i] - c;
-        const double affine = 0.25 * dx * dx * double(s.C[i](1, 0) - s.C[i](0, 1));
-        l += double(s.mass) * (double(r.x()) * s.v[i].y() - double(r.y()) * s.v[i].x() + affine);
-      }
-    return l;
-  };
+  const Vec3d o = c.cast<double>();
+  auto lz = [&]() { return test::angularMomentum(w, o).z(); };
   const double l0 = lz();
   Solver solver(w);
   solver.advanceTo(0.2);
