@@ -17,8 +17,8 @@
 #include <string>
 #include <vector>
 
-#include "sim/fem.h"
-#include "sim/tet_mesh.h"
+#include "sim/solids/fem.h"
+#include "sim/solids/tet_mesh.h"
 
 namespace {
 

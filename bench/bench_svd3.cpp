@@ -1,7 +1,7 @@
 // Microbenchmark for sim/svd3.h and the material stress paths, run by hand
 // (deliberately not in the CMake build):
 //   g++ -std=c++17 -O3 -march=native -I. -isystem /usr/include/eigen3
-//       bench/bench_svd3.cpp sim/materials.cpp -o /tmp/bench_svd3
+//       bench/bench_svd3.cpp sim/materials/materials.cpp -o /tmp/bench_svd3
 //   /tmp/bench_svd3
 // Reports the best of several runs, in ns per matrix, over 16k independent
 // matrices: the solver's access pattern (one decomposition per particle).
@@ -14,7 +14,7 @@
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
 
-#include "sim/materials.h"
+#include "sim/materials/materials.h"
 #include "sim/svd3.h"
 
 using triad::Mat3f;

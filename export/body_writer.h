@@ -11,8 +11,8 @@
 #include <utility>
 #include <vector>
 
-#include "sim/elastic_solid.h"
-#include "sim/rigid_body.h"
+#include "sim/solids/elastic_solid.h"
+#include "sim/solids/rigid_body.h"
 #include "sim/solver.h"
 
 namespace triad {

@@ -11,8 +11,8 @@
 
 #include "import/mesh_loader.h"
 #include "import/mesh_volume.h"
-#include "sim/collision_particles.h"
-#include "sim/sampling.h"
+#include "sim/solids/collision_particles.h"
+#include "sim/mpm/sampling.h"
 #include "sim/scene_desc.h"
 #include "sim/world.h"
 

@@ -7,7 +7,7 @@
 #include <limits>
 #include <sstream>
 
-#include "sim/elastic_contact.h"
+#include "sim/solids/elastic_contact.h"
 #include "sim/errors.h"
 
 namespace triad {

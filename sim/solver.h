@@ -5,11 +5,11 @@
 #include <memory>
 #include <vector>
 
-#include "sim/coupling.h"
-#include "sim/grid_update.h"
-#include "sim/rigid_contact.h"
-#include "sim/sparse_grid.h"
-#include "sim/transfer.h"
+#include "sim/coupling/coupling.h"
+#include "sim/mpm/grid_update.h"
+#include "sim/solids/rigid_contact.h"
+#include "sim/mpm/sparse_grid.h"
+#include "sim/mpm/transfer.h"
 #include "sim/world.h"
 
 namespace triad {

@@ -6,7 +6,7 @@
 #include <map>
 
 #include "sim/errors.h"
-#include "sim/sampling.h"
+#include "sim/mpm/sampling.h"
 
 namespace triad {
 

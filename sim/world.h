@@ -4,11 +4,11 @@
 #include <string>
 #include <vector>
 
-#include "sim/collision_particles.h"
-#include "sim/elastic_solid.h"
-#include "sim/particles.h"
-#include "sim/rigid_body.h"
-#include "sim/sampling.h"
+#include "sim/solids/collision_particles.h"
+#include "sim/solids/elastic_solid.h"
+#include "sim/mpm/particles.h"
+#include "sim/solids/rigid_body.h"
+#include "sim/mpm/sampling.h"
 #include "sim/scene_desc.h"
 
 namespace triad {

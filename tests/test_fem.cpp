@@ -6,8 +6,8 @@
 #include <cmath>
 #include <map>
 
-#include "sim/fem.h"
-#include "sim/tet_mesh.h"
+#include "sim/solids/fem.h"
+#include "sim/solids/tet_mesh.h"
 
 namespace triad {
 namespace {

@@ -1,7 +1,7 @@
-// Tests for sim/materials.h: energies, stresses and their derivatives
+// Tests for sim/materials/materials.h: energies, stresses and their derivatives
 // against finite differences (in double), frame invariance, and the plastic
 // return mappings of snow and sand.
-#include "sim/materials.h"
+#include "sim/materials/materials.h"
 
 #include <cmath>
 #include <random>

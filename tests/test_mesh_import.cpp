@@ -16,9 +16,9 @@
 
 #include "import/mesh_loader.h"
 #include "import/mesh_sampler.h"
-#include "sim/collision_particles.h"
+#include "sim/solids/collision_particles.h"
 #include "sim/errors.h"
-#include "sim/sampling.h"
+#include "sim/mpm/sampling.h"
 
 namespace triad {
 namespace {

@@ -3,7 +3,7 @@
 
 #include <cmath>
 
-#include "sim/sampling.h"
+#include "sim/mpm/sampling.h"
 
 namespace triad {
 namespace {

@@ -6,10 +6,10 @@
 #include <random>
 #include <set>
 
-#include "sim/grid_update.h"
-#include "sim/particles.h"
-#include "sim/sparse_grid.h"
-#include "sim/transfer.h"
+#include "sim/mpm/grid_update.h"
+#include "sim/mpm/particles.h"
+#include "sim/mpm/sparse_grid.h"
+#include "sim/mpm/transfer.h"
 
 namespace triad {
 namespace {

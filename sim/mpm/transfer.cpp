@@ -1,8 +1,8 @@
-#include "sim/transfer.h"
+#include "sim/mpm/transfer.h"
 
 #include <cstring>
 
-#include "sim/particles.h"
+#include "sim/mpm/particles.h"
 
 namespace triad {
 

@@ -1,13 +1,13 @@
-#include "sim/elastic_contact.h"
+#include "sim/solids/elastic_contact.h"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <unordered_map>
 
-#include "sim/fem.h"
-#include "sim/particles.h"
-#include "sim/sparse_grid.h"
+#include "sim/solids/fem.h"
+#include "sim/mpm/particles.h"
+#include "sim/mpm/sparse_grid.h"
 
 namespace triad {
 

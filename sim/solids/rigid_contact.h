@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "sim/math.h"
-#include "sim/rigid_body.h"
+#include "sim/solids/rigid_body.h"
 #include "sim/scene_desc.h"
 
 namespace triad {

@@ -1,4 +1,4 @@
-#include "sim/collision_particles.h"
+#include "sim/solids/collision_particles.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "sim/rigid_body.h"
+#include "sim/solids/rigid_body.h"
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>

@@ -14,7 +14,7 @@
 #include <Eigen/IterativeLinearSolvers>
 #include <Eigen/SparseCholesky>
 
-#include "sim/fem.h"
+#include "sim/solids/fem.h"
 
 namespace triad {
 

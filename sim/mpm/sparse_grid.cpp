@@ -1,8 +1,8 @@
-#include "sim/sparse_grid.h"
+#include "sim/mpm/sparse_grid.h"
 
 #include <algorithm>
 
-#include "sim/particles.h"
+#include "sim/mpm/particles.h"
 
 namespace triad {
 

@@ -15,7 +15,7 @@
 #include <cstddef>
 #include <vector>
 
-#include "sim/elastic_solid.h"
+#include "sim/solids/elastic_solid.h"
 
 namespace triad {
 

@@ -1,4 +1,4 @@
-#include "sim/fem.h"
+#include "sim/solids/fem.h"
 
 #include <algorithm>
 #include <cmath>

@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "sim/elastic_models.h"
+#include "sim/materials/elastic_models.h"
 #include "sim/math.h"
 #include "sim/svd3.h"
 

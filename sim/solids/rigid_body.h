@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "sim/collision_particles.h"
+#include "sim/solids/collision_particles.h"
 #include "sim/math.h"
 
 namespace triad {

@@ -9,10 +9,10 @@
 #include <variant>
 #include <vector>
 
-#include "sim/elastic_models.h"
+#include "sim/materials/elastic_models.h"
 #include "sim/math.h"
 #include "sim/scene_desc.h"
-#include "sim/tet_mesh.h"
+#include "sim/solids/tet_mesh.h"
 
 namespace triad {
 

@@ -1,4 +1,4 @@
-#include "sim/rigid_contact.h"
+#include "sim/solids/rigid_contact.h"
 
 #include <algorithm>
 #include <cmath>

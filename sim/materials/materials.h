@@ -17,9 +17,9 @@
 #include <cmath>
 #include <variant>
 
-#include "sim/elastic_models.h"
+#include "sim/materials/elastic_models.h"
 #include "sim/math.h"
-#include "sim/plastic_models.h"
+#include "sim/materials/plastic_models.h"
 #include "sim/scene_desc.h"
 
 namespace triad {

@@ -8,9 +8,9 @@
 #include <unordered_set>
 #include <vector>
 
-#include "sim/collision_particles.h"
-#include "sim/fem.h"
-#include "sim/tet_mesh.h"
+#include "sim/solids/collision_particles.h"
+#include "sim/solids/fem.h"
+#include "sim/solids/tet_mesh.h"
 
 namespace triad {
 

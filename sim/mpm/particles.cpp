@@ -1,4 +1,4 @@
-#include "sim/particles.h"
+#include "sim/mpm/particles.h"
 
 #include <cstring>
 

@@ -1,8 +1,8 @@
-#include "sim/elastic_solid.h"
+#include "sim/solids/elastic_solid.h"
 
 #include <cmath>
 
-#include "sim/sparse_grid.h"
+#include "sim/mpm/sparse_grid.h"
 
 namespace triad {
 

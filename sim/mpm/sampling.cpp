@@ -1,4 +1,4 @@
-#include "sim/sampling.h"
+#include "sim/mpm/sampling.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,6 +1,6 @@
 // Material construction from scene descriptions, and the batched stress
 // kernels (float only, so they live here rather than in the headers).
-#include "sim/materials.h"
+#include "sim/materials/materials.h"
 
 #include <cmath>
 

@@ -1,10 +1,10 @@
-#include "sim/tet_mesh.h"
+#include "sim/solids/tet_mesh.h"
 
 #include <cmath>
 #include <limits>
 #include <unordered_map>
 
-#include "sim/sparse_grid.h"
+#include "sim/mpm/sparse_grid.h"
 
 namespace triad {
 

@@ -1,4 +1,4 @@
-#include "sim/grid_update.h"
+#include "sim/mpm/grid_update.h"
 
 #include <algorithm>
 

@@ -5,7 +5,7 @@
 
 #include "sim/math.h"
 #include "sim/scene_desc.h"
-#include "sim/sparse_grid.h"
+#include "sim/mpm/sparse_grid.h"
 
 namespace triad {
 

@@ -1,4 +1,4 @@
-#include "sim/coupling.h"
+#include "sim/coupling/coupling.h"
 
 #include <algorithm>
 #include <cmath>

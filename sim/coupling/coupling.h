@@ -11,8 +11,8 @@
 
 #include "sim/math.h"
 #include "sim/scene_desc.h"
-#include "sim/sparse_grid.h"
-#include "sim/transfer.h"
+#include "sim/mpm/sparse_grid.h"
+#include "sim/mpm/transfer.h"
 
 namespace triad {
 

@@ -5,7 +5,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "sim/materials.h"
+#include "sim/materials/materials.h"
 #include "sim/math.h"
 
 namespace triad {
