@@ -41,6 +41,8 @@ const ParamDict::Choices<ElasticIntegrator> kIntegrators = {
     {"explicit", ElasticIntegrator::Explicit}, {"implicit", ElasticIntegrator::Implicit}};
 const ParamDict::Choices<RigidNodeMass> kNodeMasses = {{"body_share", RigidNodeMass::BodyShare},
                                                         {"node", RigidNodeMass::Node}};
+const ParamDict::Choices<ContactNormal> kContactNormals = {{"samples", ContactNormal::Samples},
+                                                           {"distance", ContactNormal::Distance}};
 const ParamDict::Choices<MaterialModel> kModels = {
     {"fixed_corotated", MaterialModel::FixedCorotated},
     {"neo_hookean", MaterialModel::NeoHookean},
@@ -163,8 +165,10 @@ SolverDesc parseSolver(const ParamDict& root) {
     out.flip_ratio = s->getDouble("flip_ratio", out.flip_ratio, Range::closed(0, 1));
   }
   out.coupling = s->getEnum("coupling", out.coupling, kCouplings);
-  if (out.coupling == CouplingScheme::ThreeGrid)
+  if (out.coupling == CouplingScheme::ThreeGrid) {
     out.contact_reach = s->getDouble("contact_reach", out.contact_reach, Range::closed(0, 1.5));
+    out.contact_normal = s->getEnum("contact_normal", out.contact_normal, kContactNormals);
+  }
   out.contact_velocity = s->getEnum("contact_velocity", out.contact_velocity, kContactVelocities);
   out.solid_readback = s->getEnum("solid_readback", out.solid_readback, kReadbacks);
   out.rigid_node_mass = s->getEnum("rigid_node_mass", out.rigid_node_mass, kNodeMasses);
@@ -173,7 +177,7 @@ SolverDesc parseSolver(const ParamDict& root) {
   out.contact_iterations =
       s->getInt("contact_iterations", out.contact_iterations, Range::closed(1, 1000));
   s->checkUnknownKeys({}, [&](const std::string& key) -> std::string {
-    if (key == "contact_reach")
+    if (key == "contact_reach" || key == "contact_normal")
       return std::string("it applies only when coupling is \"three_grid\", and coupling is ") +
              inQuotes(nameOf(kCouplings, out.coupling));
     if (key != "flip_ratio") return {};

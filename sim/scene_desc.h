@@ -23,6 +23,9 @@ enum class SolidReadback { MomentumConserving, Combined };
 // The solid mass in a collision's reduced mass at a rigid body's node: the
 // body's mass shared over its nodes in contact, or the node's own (literal).
 enum class RigidNodeMass { BodyShare, Node };
+// Three grids: a node's contact normal, from the samples' summed normals
+// (the contract's step 4) or from the body's own signed distance.
+enum class ContactNormal { Samples, Distance };
 enum class MaterialModel { FixedCorotated, NeoHookean, Snow, DruckerPrager, Water };
 enum class ObjectKind { Mpm, Rigid, Elastic };
 enum class ElasticIntegrator { Explicit, Implicit };
@@ -58,6 +61,7 @@ struct SolverDesc {
   // still takes part in the contact (its signed distance, extrapolated from
   // the samples). 1.5 takes every node the samples' stencils reach.
   double contact_reach = 1.5;
+  ContactNormal contact_normal = ContactNormal::Distance;
   int coupling_iterations = 30;  // most Jacobi passes of the grid collision with rigid bodies
   int contact_iterations = 20;  // sequential-impulse passes for rigid contacts
 };

@@ -429,7 +429,8 @@ TEST(BodiesCache, ForcesTableGivesTheBuoyancyOfAFixedBoxUnderWater) {
   const double buoyancy = 1000 * 9.81 * 0.1 * 0.1 * 0.1;
   std::printf("fixed box under water: fy %.3f N (rho g V %.3f N), fx %.3f, fz %.3f, torque %.4f %.4f %.4f\n",
               mean[1], buoyancy, mean[0], mean[2], mean[3], mean[4], mean[5]);
-  // Measured 9.23 N, 5.9% short at this dx (four cells across the box); a
+  // Measured 9.33 N, 4.9% short at this dx (four cells across the box; 9.23 N
+  // with the summed sample normals); a
   // body of water's weight would be 10% (the box is sampled at dx/2, so its
   // volume is exact). Without the fixed solids' node impulses: 0.
   EXPECT_NEAR(mean[1], buoyancy, 0.08 * buoyancy);

@@ -441,6 +441,17 @@ TEST_F(SceneLoaderTest, ContactReachIsCellsWithinTheStencilAndOnlyWithThreeGrids
                         "\"single_grid\""}));
 }
 
+TEST_F(SceneLoaderTest, ContactNormalIsDistanceOrSamplesAndOnlyWithThreeGrids) {
+  EXPECT_EQ(load(exampleScene()).solver.contact_normal, ContactNormal::Distance);
+  EXPECT_EQ(load(with(exampleScene(), "/solver/contact_normal", "samples")).solver.contact_normal,
+            ContactNormal::Samples);
+  EXPECT_TRUE(contains(error(with(exampleScene(), "/solver/contact_normal", "gradient")),
+                       {"solver.contact_normal", "distance", "samples"}));
+  json single = with(exampleScene(), "/solver/coupling", "single_grid");
+  EXPECT_TRUE(contains(error(with(single, "/solver/contact_normal", "samples")),
+                       {"solver.contact_normal", "coupling is \"three_grid\""}));
+}
+
 TEST_F(SceneLoaderTest, MisspeltChoiceSuggestsTheClosest) {
   EXPECT_TRUE(contains(error(with(exampleScene(), "/domain/boundary/type", "slpi")),
                        {"domain.boundary.type", "\"slip\", \"sticky\", \"separate\"",

@@ -12,7 +12,7 @@ namespace {
 constexpr int32_t kNoSlot = -1;
 
 // A node no solid reaches: no mass, and as far outside as can be.
-const GridCoupling::SolidNode kEmptyNode{0, {0, 0, 0}, {0, 0, 0}, 0, 0, -1e30f, 0, 0, 0};
+const GridCoupling::SolidNode kEmptyNode{0, {0, 0, 0}, {0, 0, 0}, 0, 0, -1e30f, {0, 0, 0}, 0, 0, 0};
 
 // Node offset inside a grid block.
 inline int localNode(int x, int y, int z) {
@@ -194,7 +194,11 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
           forStencil(blk, pts.x[q], p, [&](float w, size_t i, const Vec3f& r) {
             SolidNode& g = nodes_[i];
             g.m += w * m;
-            g.phi = std::max(g.phi, phi + p.dx * nq.dot(r));
+            const float dist = phi + p.dx * nq.dot(r);
+            if (dist > g.phi) {
+              g.phi = dist;
+              for (int e = 0; e < 3; ++e) g.dn[e] = nq[e];
+            }
             for (int d = 0; d < 3; ++d) {
               g.p[d] += w * m * v[d];
               g.n[d] += w * nq[d];
@@ -233,7 +237,11 @@ void GridCoupling::buildFixed(const SolidPoints& pts, const TransferParams& p) {
             const float w = st.w[0][a] * st.w[1][b] * st.w[2][c];
             g.m += w * m;
             const Vec3f r(float(a) - st.fx[0], float(b) - st.fx[1], float(c) - st.fx[2]);
-            g.phi = std::max(g.phi, pts.phi[q] + p.dx * pts.n[q].dot(r));
+            const float dist = pts.phi[q] + p.dx * pts.n[q].dot(r);
+            if (dist > g.phi) {
+              g.phi = dist;
+              for (int k3 = 0; k3 < 3; ++k3) g.dn[k3] = pts.n[q][k3];
+            }
             for (int d = 0; d < 3; ++d) g.n[d] += w * pts.n[q][d];
             g.mu += w * m * mu;
             g.fixed_m += w * m;
@@ -284,6 +292,7 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
   const float reach = single || solver_.contact_reach >= 1.5
                           ? std::numeric_limits<float>::infinity()
                           : float(solver_.contact_reach) * p.dx;
+  const bool by_distance = !single && solver_.contact_normal == ContactNormal::Distance;
   auto inContact = [&](const SolidNode& sn, const GridNode& g) {
     return sn.m > 0.0f && g.m > 0.0f && (sn.phi <= reach || sn.owner < 0);
   };
@@ -325,8 +334,13 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
       c.v_vol = c.fixed ? Vec3f(Vec3f::Zero()) : Vec3f(Vec3f(sn.p[0], sn.p[1], sn.p[2]) / sn.m);
       c.v_mpm = Vec3f(g.v[0], g.v[1], g.v[2]);
       c.v_cmp = before ? pre_[i] : c.v_mpm;
-      const Vec3f nsum(sn.n[0], sn.n[1], sn.n[2]);
-      c.n = nsum.norm() > 0.0f ? Vec3f(nsum.normalized()) : Vec3f(Vec3f::Zero());
+      // The distance's normal where one solid with a distance holds the
+      // node; otherwise (elastic solids, nodes of several) the summed one.
+      const Vec3f nsum(sn.n[0], sn.n[1], sn.n[2]), ndist(sn.dn[0], sn.dn[1], sn.dn[2]);
+      if (by_distance && sn.owner > 0 && !ndist.isZero())
+        c.n = ndist;
+      else
+        c.n = nsum.norm() > 0.0f ? Vec3f(nsum.normalized()) : Vec3f(Vec3f::Zero());
       c.mu = sn.mu / sn.m;
       const Vec3i node = unpackBlock((*layout_keys_)[gb]) * kBlockSize +
                          Vec3i(k >> (2 * kBlockBits), (k >> kBlockBits) & (kBlockSize - 1),

@@ -102,6 +102,9 @@ class GridCoupling {
     // body's own distance inside it and across its nearest face, exact for
     // plane faces however thin the body, where summed normals cancel.
     float phi;
+    // The normal of the sample that gave phi: the body's own distance
+    // gradient at the node (zero where no sample has a distance).
+    float dn[3];
     int32_t solid, fixed_solid;
     int32_t owner;  // the one solid of any kind it holds (solid + 1; 0 none; -1 several)
   };
