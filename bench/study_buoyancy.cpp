@@ -21,6 +21,7 @@
 // spread of particle J by layer at the end.
 #include <omp.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -240,8 +241,22 @@ int main(int argc, char** argv) {
                   flux, -vb * slab_area, vin / std::max(nin, 1), vover / std::max(nover, 1), vb);
     }
 
-    if (s.trace)
-      std::printf("  p under %.0f (far %.0f) over %.0f (far %.0f)\n", ps[0], ps[1], ps[2], ps[3]);
+    if (s.trace) {
+      // Water particles inside the slab's box (none should be), and how
+      // many lie within half a cell outside its faces.
+      size_t inside = 0, skin = 0;
+      for (const triad::ParticleSet& set : w.sets)
+        for (size_t i = 0; i < set.size(); ++i) {
+          if (set.object[i] == slab_object) continue;
+          const triad::Vec3f& x = set.x[i];
+          const double e = std::max({sx0 - x.x(), x.x() - sx1, b - x.y(), x.y() - b - t,
+                                     kSz0 - x.z(), x.z() - kSz1});
+          inside += e < 0;
+          skin += e >= 0 && e < 0.5 * s.dx;
+        }
+      std::printf("  p under %.0f (far %.0f) over %.0f (far %.0f); water inside the slab %zu, "
+                  "within dx/2 of it %zu\n", ps[0], ps[1], ps[2], ps[3], inside, skin);
+    }
     if (s.start == "film") {
       size_t on = 0, all = 0;
       double fvx = 0, fvy = 0, fj = 0;

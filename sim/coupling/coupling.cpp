@@ -12,7 +12,7 @@ namespace {
 constexpr int32_t kNoSlot = -1;
 
 // A node no solid reaches: no mass, and as far outside as can be.
-const GridCoupling::SolidNode kEmptyNode{0, {0, 0, 0}, {0, 0, 0}, 0, 0, -1e30f, {0, 0, 0}, 0, 0, 0};
+const GridCoupling::SolidNode kEmptyNode{0, {0, 0, 0}, {0, 0, 0}, 0, 0, -1e30f, {0, 0, 0}, {0, 0, 0}, 0, 0, 0};
 
 // Node offset inside a grid block.
 inline int localNode(int x, int y, int z) {
@@ -199,6 +199,8 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
               g.phi = dist;
               for (int e = 0; e < 3; ++e) g.dn[e] = nq[e];
             }
+            if (dist > 0.0f)
+              for (int e = 0; e < 3; ++e) g.on[e] += w * dist * nq[e];
             for (int d = 0; d < 3; ++d) {
               g.p[d] += w * m * v[d];
               g.n[d] += w * nq[d];
@@ -242,6 +244,8 @@ void GridCoupling::buildFixed(const SolidPoints& pts, const TransferParams& p) {
               g.phi = dist;
               for (int k3 = 0; k3 < 3; ++k3) g.dn[k3] = pts.n[q][k3];
             }
+            if (dist > 0.0f)
+              for (int k3 = 0; k3 < 3; ++k3) g.on[k3] += w * dist * pts.n[q][k3];
             for (int d = 0; d < 3; ++d) g.n[d] += w * pts.n[q][d];
             g.mu += w * m * mu;
             g.fixed_m += w * m;
@@ -335,9 +339,14 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
       c.v_mpm = Vec3f(g.v[0], g.v[1], g.v[2]);
       c.v_cmp = before ? pre_[i] : c.v_mpm;
       // The distance's normal where one solid with a distance holds the
-      // node; otherwise (elastic solids, nodes of several) the summed one.
+      // node: outside it the closest point's direction, inside the normal
+      // of the face the node is nearest; otherwise (elastic solids, nodes
+      // of several) the summed one.
       const Vec3f nsum(sn.n[0], sn.n[1], sn.n[2]), ndist(sn.dn[0], sn.dn[1], sn.dn[2]);
-      if (by_distance && sn.owner > 0 && !ndist.isZero())
+      const Vec3f nout(sn.on[0], sn.on[1], sn.on[2]);
+      if (by_distance && sn.owner > 0 && sn.phi > 0.0f && nout.norm() > 0.0f)
+        c.n = nout.normalized();
+      else if (by_distance && sn.owner > 0 && !ndist.isZero())
         c.n = ndist;
       else
         c.n = nsum.norm() > 0.0f ? Vec3f(nsum.normalized()) : Vec3f(Vec3f::Zero());
@@ -424,9 +433,11 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
   moving_.clear();
   for (uint32_t k = 0; k < shared_.size(); ++k)
     if (shared_[k].solid >= 0) moving_.push_back(k);
+  const bool newton = solver_.rigid_collision == RigidCollision::Newton;
   const int passes = moving_.empty() ? 1 : solver_.coupling_iterations;
   int pass = 1;
-  for (;; ++pass) {
+  if (newton && !moving_.empty()) pass = solveBodies(pts, passes);
+  for (; !newton; ++pass) {
     // Each body takes the opposite of its nodes' new impulses.
     std::vector<Vec3f> dp(nsolids, Vec3f::Zero()), dl(nsolids, Vec3f::Zero());
     for (uint32_t k : moving_) {

@@ -102,9 +102,15 @@ class GridCoupling {
     // body's own distance inside it and across its nearest face, exact for
     // plane faces however thin the body, where summed normals cancel.
     float phi;
-    // The normal of the sample that gave phi: the body's own distance
-    // gradient at the node (zero where no sample has a distance).
+    // The normal of the sample that gave phi: inside the body, the normal of
+    // its nearest face (zero where no sample has a distance).
     float dn[3];
+    // Outside the solid: the samples' normals weighted by how far outside
+    // their own planes the node lies, w_iq max(0, phi_q + n_q . (x_i - x_q)),
+    // summed. Beside a face only that face's samples count; around an edge
+    // or a corner both faces do, in proportion to the node's distance from
+    // each: the direction from the closest point, as the exact distance has.
+    float on[3];
     int32_t solid, fixed_solid;
     int32_t owner;  // the one solid of any kind it holds (solid + 1; 0 none; -1 several)
   };
@@ -140,6 +146,9 @@ class GridCoupling {
   std::vector<uint64_t> point_key_;    // per point: base block key
   void buildFixed(const SolidPoints& points, const TransferParams& p);
   void addNodeLoad(int32_t solid, const Shared& c, const Vec3f& impulse);
+  // The collision at the nodes of moving rigid bodies (moving_), solved for
+  // each body's velocity change by Newton's method; returns the iterations.
+  int solveBodies(const SolidPoints& points, int max_iterations);
 
   std::vector<Shared> shared_;
   std::vector<uint32_t> moving_;  // shared nodes of one moving rigid body
