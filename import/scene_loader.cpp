@@ -41,8 +41,6 @@ const ParamDict::Choices<ElasticIntegrator> kIntegrators = {
     {"explicit", ElasticIntegrator::Explicit}, {"implicit", ElasticIntegrator::Implicit}};
 const ParamDict::Choices<RigidNodeMass> kNodeMasses = {{"body_share", RigidNodeMass::BodyShare},
                                                         {"node", RigidNodeMass::Node}};
-const ParamDict::Choices<RigidCollision> kRigidCollisions = {{"newton", RigidCollision::Newton},
-                                                             {"jacobi", RigidCollision::Jacobi}};
 const ParamDict::Choices<ContactNormal> kContactNormals = {{"samples", ContactNormal::Samples},
                                                            {"distance", ContactNormal::Distance}};
 const ParamDict::Choices<MaterialModel> kModels = {
@@ -174,7 +172,6 @@ SolverDesc parseSolver(const ParamDict& root) {
   out.contact_velocity = s->getEnum("contact_velocity", out.contact_velocity, kContactVelocities);
   out.solid_readback = s->getEnum("solid_readback", out.solid_readback, kReadbacks);
   out.rigid_node_mass = s->getEnum("rigid_node_mass", out.rigid_node_mass, kNodeMasses);
-  out.rigid_collision = s->getEnum("rigid_collision", out.rigid_collision, kRigidCollisions);
   out.coupling_iterations =
       s->getInt("coupling_iterations", out.coupling_iterations, Range::closed(1, 1000));
   out.contact_iterations =

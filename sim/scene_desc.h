@@ -26,9 +26,7 @@ enum class RigidNodeMass { BodyShare, Node };
 // Three grids: a node's contact normal, from the samples' summed normals
 // (the contract's step 4) or from the body's own signed distance.
 enum class ContactNormal { Samples, Distance };
-// How the collision at a moving rigid body's nodes feeds the body's response
-// back: Newton on the body's velocity, or Jacobi passes over the nodes.
-enum class RigidCollision { Newton, Jacobi };
+
 enum class MaterialModel { FixedCorotated, NeoHookean, Snow, DruckerPrager, Water };
 enum class ObjectKind { Mpm, Rigid, Elastic };
 enum class ElasticIntegrator { Explicit, Implicit };
@@ -65,8 +63,7 @@ struct SolverDesc {
   // the samples). 1.5 takes every node the samples' stencils reach.
   double contact_reach = 1.5;
   ContactNormal contact_normal = ContactNormal::Distance;
-  RigidCollision rigid_collision = RigidCollision::Jacobi;
-  int coupling_iterations = 30;  // most iterations of the grid collision with rigid bodies
+  int coupling_iterations = 30;  // most Jacobi passes of the grid collision with rigid bodies
   int contact_iterations = 20;  // sequential-impulse passes for rigid contacts
 };
 

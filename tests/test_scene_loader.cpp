@@ -452,14 +452,6 @@ TEST_F(SceneLoaderTest, ContactNormalIsDistanceOrSamplesAndOnlyWithThreeGrids) {
                        {"solver.contact_normal", "coupling is \"three_grid\""}));
 }
 
-TEST_F(SceneLoaderTest, RigidCollisionIsNewtonOrJacobi) {
-  EXPECT_EQ(load(exampleScene()).solver.rigid_collision, RigidCollision::Jacobi);
-  EXPECT_EQ(load(with(exampleScene(), "/solver/rigid_collision", "newton")).solver.rigid_collision,
-            RigidCollision::Newton);
-  EXPECT_TRUE(contains(error(with(exampleScene(), "/solver/rigid_collision", "gauss_seidel")),
-                       {"solver.rigid_collision", "newton", "jacobi"}));
-}
-
 TEST_F(SceneLoaderTest, MisspeltChoiceSuggestsTheClosest) {
   EXPECT_TRUE(contains(error(with(exampleScene(), "/domain/boundary/type", "slpi")),
                        {"domain.boundary.type", "\"slip\", \"sticky\", \"separate\"",

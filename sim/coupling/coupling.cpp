@@ -433,11 +433,9 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
   moving_.clear();
   for (uint32_t k = 0; k < shared_.size(); ++k)
     if (shared_[k].solid >= 0) moving_.push_back(k);
-  const bool newton = solver_.rigid_collision == RigidCollision::Newton;
   const int passes = moving_.empty() ? 1 : solver_.coupling_iterations;
   int pass = 1;
-  if (newton && !moving_.empty()) pass = solveBodies(pts, passes);
-  for (; !newton; ++pass) {
+  for (;; ++pass) {
     // Each body takes the opposite of its nodes' new impulses.
     std::vector<Vec3f> dp(nsolids, Vec3f::Zero()), dl(nsolids, Vec3f::Zero());
     for (uint32_t k : moving_) {

@@ -146,9 +146,6 @@ class GridCoupling {
   std::vector<uint64_t> point_key_;    // per point: base block key
   void buildFixed(const SolidPoints& points, const TransferParams& p);
   void addNodeLoad(int32_t solid, const Shared& c, const Vec3f& impulse);
-  // The collision at the nodes of moving rigid bodies (moving_), solved for
-  // each body's velocity change by Newton's method; returns the iterations.
-  int solveBodies(const SolidPoints& points, int max_iterations);
 
   std::vector<Shared> shared_;
   std::vector<uint32_t> moving_;  // shared nodes of one moving rigid body
