@@ -137,6 +137,10 @@ double entryDepth(const ElasticSolid& b, const Vec3d& rest, const Vec3d& back, F
   return -1.0;
 }
 
+// How deep, in sample spacings, a point must be before the face it crossed
+// in the step, rather than its nearest face, is the one it leaves through.
+constexpr double kShallow = 0.25;
+
 double inverseMass(const FemBody& b, int node) {
   return b.pinned[size_t(node)] ? 0.0 : 1.0 / b.mass[size_t(node)];
 }
@@ -190,9 +194,15 @@ bool findPenetration(const ElasticSolid& b, const EndOfStep& end, const Vec3d& x
     }
     const Mat3d F = edges(end.y, n) * fb.dm_inv[size_t(t)];
     Face face;
-    if (restDepth(b, rest, face) <= 0.0) return false;
+    const double nearest = restDepth(b, rest, face);
+    if (nearest <= 0.0) return false;
+    // A point barely inside leaves through its nearest face: a node of a
+    // surface sliding along this one, which the other's leading face sweeps
+    // over, is a bump to ride over, not a wall to stop at.
     Face entry;
-    if (entryDepth(b, rest, -dt * (F.inverse() * (v - vb)), entry) >= 0.0) face = entry;
+    if (nearest > kShallow * fb.mesh.spacing &&
+        entryDepth(b, rest, -dt * (F.inverse() * (v - vb)), entry) >= 0.0)
+      face = entry;
     Vec3d centroid, normal;
     if (!deformedFace(b, end.y, face, centroid, normal)) return false;
     const double depth = normal.dot(x - centroid);
