@@ -46,6 +46,17 @@ void forStencil(const Block& blk, const Vec3f& x, const TransferParams& p, F&& f
       }
 }
 
+// Adds one sample's distance, carried along its normal to the node (dist =
+// phi_q + n_q . (x_i - x_q)), to the node's distance and normals.
+inline void addSampleDistance(GridCoupling::SolidNode& g, float w, float dist, const Vec3f& nq) {
+  if (dist > g.phi) {
+    g.phi = dist;
+    for (int e = 0; e < 3; ++e) g.dn[e] = nq[e];
+  }
+  if (dist > 0.0f)
+    for (int e = 0; e < 3; ++e) g.on[e] += w * dist * nq[e];
+}
+
 }  // namespace
 
 void SolidPoints::clear() {
@@ -194,13 +205,7 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
           forStencil(blk, pts.x[q], p, [&](float w, size_t i, const Vec3f& r) {
             SolidNode& g = nodes_[i];
             g.m += w * m;
-            const float dist = phi + p.dx * nq.dot(r);
-            if (dist > g.phi) {
-              g.phi = dist;
-              for (int e = 0; e < 3; ++e) g.dn[e] = nq[e];
-            }
-            if (dist > 0.0f)
-              for (int e = 0; e < 3; ++e) g.on[e] += w * dist * nq[e];
+            addSampleDistance(g, w, phi + p.dx * nq.dot(r), nq);
             for (int d = 0; d < 3; ++d) {
               g.p[d] += w * m * v[d];
               g.n[d] += w * nq[d];
@@ -239,13 +244,7 @@ void GridCoupling::buildFixed(const SolidPoints& pts, const TransferParams& p) {
             const float w = st.w[0][a] * st.w[1][b] * st.w[2][c];
             g.m += w * m;
             const Vec3f r(float(a) - st.fx[0], float(b) - st.fx[1], float(c) - st.fx[2]);
-            const float dist = pts.phi[q] + p.dx * pts.n[q].dot(r);
-            if (dist > g.phi) {
-              g.phi = dist;
-              for (int k3 = 0; k3 < 3; ++k3) g.dn[k3] = pts.n[q][k3];
-            }
-            if (dist > 0.0f)
-              for (int k3 = 0; k3 < 3; ++k3) g.on[k3] += w * dist * pts.n[q][k3];
+            addSampleDistance(g, w, pts.phi[q] + p.dx * pts.n[q].dot(r), pts.n[q]);
             for (int d = 0; d < 3; ++d) g.n[d] += w * pts.n[q][d];
             g.mu += w * m * mu;
             g.fixed_m += w * m;
