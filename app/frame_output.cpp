@@ -162,7 +162,9 @@ void makeOutputDirectories(const SceneDesc& scene, const std::string& out_dir) {
   if (scene.output.vdb) makeDirectories(out_dir + "/volumes");
   if (scene.output.checkpoints) makeDirectories(checkpointDir(out_dir));
   if (std::any_of(scene.objects.begin(), scene.objects.end(),
-                  [](const ObjectDesc& o) { return o.kind != ObjectKind::Mpm; }))
+                  [](const ObjectDesc& o) {
+                    return o.kind != ObjectKind::Mpm && o.kind != ObjectKind::Sink;
+                  }))
     makeDirectories(bodiesDir(out_dir));
 }
 

@@ -384,6 +384,9 @@ void restoreCheckpoint(Checkpoint&& c, World& world, Solver& solver) {
   }
   for (size_t k = 0; k < c.bodies.size(); ++k) world.bodies[k].state = c.bodies[k].second;
   world.time = c.time;
+  // Animated colliders: the pose and its velocities follow from the clock.
+  for (RigidBody& b : world.bodies)
+    if (b.animated) b.poseAt(world.time);
   world.steps = c.steps;
   solver.restore(c.solver);
 }

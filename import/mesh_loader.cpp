@@ -23,17 +23,6 @@ namespace triad {
 
 namespace {
 
-Mat3d axisRotation(int axis, double deg) {
-  const double a = deg * M_PI / 180.0, c = std::cos(a), s = std::sin(a);
-  Mat3d r = Mat3d::Identity();
-  const int i = (axis + 1) % 3, j = (axis + 2) % 3;  // x: (y,z); y: (z,x); z: (x,y)
-  r(i, i) = c;
-  r(i, j) = -s;
-  r(j, i) = s;
-  r(j, j) = c;
-  return r;
-}
-
 std::string plural(size_t n, const char* one, const char* many) {
   return std::to_string(n) + " " + (n == 1 ? one : many);
 }
@@ -135,10 +124,6 @@ double TriangleMesh::signedVolume() const {
   for (const auto& t : triangles)
     v += positions[t[0]].dot(positions[t[1]].cross(positions[t[2]]));
   return v / 6.0;
-}
-
-Mat3d eulerXYZDegrees(const Vec3Desc& r) {
-  return axisRotation(2, r[2]) * axisRotation(1, r[1]) * axisRotation(0, r[0]);
 }
 
 Vec3d placePoint(const MeshDesc& desc, const Vec3d& p) {

@@ -8,6 +8,7 @@
 
 #include "sim/math.h"
 #include "sim/scene_desc.h"
+#include "sim/shot/animation.h"
 
 namespace triad {
 
@@ -32,12 +33,8 @@ struct MeshLoadResult {
   int boundary_edges = 0;             // open edges found (before hole filling)
 };
 
-// The rotation of a mesh shape's `rotate_deg` = (a, b, c): XYZ Euler angles
-// in degrees, about the fixed world axes, X first, then Y, then Z:
-//   R = Rz(c) * Ry(b) * Rx(a),  with column vectors, p' = R p,
-//   Rx(a) = [1 0 0; 0 cos a -sin a; 0 sin a cos a] (right-handed, a > 0
-//   turns +y towards +z), likewise Ry (+z towards +x), Rz (+x towards +y).
-Mat3d eulerXYZDegrees(const Vec3Desc& rotate_deg);
+// The rotation of a mesh shape's `rotate_deg` is eulerXYZDegrees
+// (sim/shot/animation.h), the same as an animation key's.
 
 // The full placement of a mesh shape: p_world = translate + R (scale p).
 Vec3d placePoint(const MeshDesc& desc, const Vec3d& p);

@@ -49,8 +49,13 @@ const ParamDict::Choices<MaterialModel> kModels = {
     {"snow", MaterialModel::Snow},
     {"drucker_prager", MaterialModel::DruckerPrager},
     {"water", MaterialModel::Water}};
-const ParamDict::Choices<ObjectKind> kKinds = {
-    {"mpm", ObjectKind::Mpm}, {"rigid", ObjectKind::Rigid}, {"elastic", ObjectKind::Elastic}};
+const ParamDict::Choices<ObjectKind> kKinds = {{"mpm", ObjectKind::Mpm},
+                                               {"rigid", ObjectKind::Rigid},
+                                               {"elastic", ObjectKind::Elastic},
+                                               {"collider", ObjectKind::Collider},
+                                               {"sink", ObjectKind::Sink}};
+const ParamDict::Choices<Interpolation> kInterpolations = {{"linear", Interpolation::Linear},
+                                                           {"smooth", Interpolation::Smooth}};
 
 template <class E>
 std::string nameOf(const ParamDict::Choices<E>& choices, E value) {
@@ -314,13 +319,24 @@ std::string describeShape(const ShapeDesc& shape) {
 // Objects
 
 std::string objectKeyHint(ObjectKind kind, const std::string& key) {
+  const bool moved = kind == ObjectKind::Collider || kind == ObjectKind::Sink;
+  if (moved && (key == "density" || key == "velocity" || key == "angular_velocity" ||
+                key == "fixed" || key == "material"))
+    return "a " + nameOf(kKinds, kind) +
+           " has no mass and is moved only by its \"animation\" (it moves exactly as prescribed)";
+  if (key == "animation")
+    return "only colliders, sinks and MPM sources (objects with \"emit\") take an animation";
+  if (key == "emit") return "only MPM objects can be sources";
   if (key == "material") return "a rigid object takes a density, not a material";
   if (key == "density")
     return "only rigid objects take a density; others get it from their material";
   if (key == "fixed" || key == "angular_velocity") return "only rigid objects take it";
   if (key == "integrator") return "only elastic objects take it";
   if (key == "sample_spacing" && kind == ObjectKind::Mpm)
-    return "only rigid and elastic objects take it; MPM objects use solver.particles_per_cell";
+    return "only rigid, elastic and collider objects take it; MPM objects use "
+           "solver.particles_per_cell";
+  if ((key == "sample_spacing" || key == "friction") && kind == ObjectKind::Sink)
+    return "a sink only removes material: it has no contact";
   if (key == "friction" && kind == ObjectKind::Mpm) {
     return "only rigid and elastic objects take it, for contact with MPM material";
   }
@@ -364,18 +380,66 @@ double parseSampleSpacing(const ParamDict& d, const DomainDesc& domain) {
   return s;
 }
 
+// Keys in increasing time, at least one; each a time and optional
+// translate and rotate_deg.
+AnimationDesc parseAnimation(const ParamDict& a) {
+  AnimationDesc out;
+  out.interpolation = a.getEnum("interpolation", out.interpolation, kInterpolations);
+  const std::vector<ParamDict> keys = a.requireDictArray("keys");
+  for (std::size_t k = 0; k < keys.size(); ++k) {
+    AnimationKeyDesc key;
+    key.time = keys[k].requireDouble("time");
+    key.translate = keys[k].getVec3("translate", key.translate);
+    key.rotate_deg = keys[k].getVec3("rotate_deg", key.rotate_deg);
+    keys[k].checkUnknownKeys("in an animation key");
+    if (k > 0 && !(key.time > out.keys.back().time))
+      keys[k].fail("time", "expected keys in increasing time: a time after keys[" +
+                               std::to_string(k - 1) + "].time = " +
+                               formatNumber(out.keys.back().time) + ", got " +
+                               formatNumber(key.time));
+    out.keys.push_back(key);
+  }
+  a.checkUnknownKeys("in an animation");
+  return out;
+}
+
+EmitDesc parseEmit(const ParamDict& e) {
+  EmitDesc out;
+  out.start = e.getDouble("start", out.start, Range::nonNegative());
+  out.end = e.requireDouble("end", Range::positive());
+  if (!(out.end > out.start))
+    e.fail("end", "expected an end after start = " + formatNumber(out.start) + " s, got " +
+                      formatNumber(out.end));
+  e.checkUnknownKeys("in emit");
+  return out;
+}
+
 ObjectDesc parseObject(const ParamDict& d, const std::vector<MaterialDesc>& materials,
                        const DomainDesc& domain, const std::string& scene_dir) {
   ObjectDesc o;
   o.name = requireSafeName(d, "name");
   o.kind = d.requireEnum("kind", kKinds);
   o.shape = parseShape(d.requireDict("shape"), scene_dir);
-  o.velocity = d.getVec3("velocity", o.velocity);
+  const bool moved = o.kind == ObjectKind::Collider || o.kind == ObjectKind::Sink;
+  if (!moved) o.velocity = d.getVec3("velocity", o.velocity);
 
   // Read the keys that this kind takes
   switch (o.kind) {
     case ObjectKind::Mpm:
       o.material = resolveMaterial(d, materials);
+      if (auto e = d.getDict("emit")) o.emit = parseEmit(*e);
+      // A source may move; a body of material moves by its own physics.
+      if (o.emit)
+        if (auto a = d.getDict("animation")) o.animation = parseAnimation(*a);
+      break;
+    case ObjectKind::Collider:
+      if (auto a = d.getDict("animation")) o.animation = parseAnimation(*a);
+      o.friction = d.getDouble("friction", o.friction, Range::nonNegative());
+      o.sample_spacing = parseSampleSpacing(d, domain);
+      o.fixed = true;  // never moved by anything
+      break;
+    case ObjectKind::Sink:
+      if (auto a = d.getDict("animation")) o.animation = parseAnimation(*a);
       break;
     case ObjectKind::Elastic: {
       o.material = resolveMaterial(d, materials);
@@ -404,10 +468,10 @@ ObjectDesc parseObject(const ParamDict& d, const std::vector<MaterialDesc>& mate
 
   // A fixed body never moves, so an initial motion contradicts it.
   const Vec3Desc zero{0, 0, 0};
-  if (o.fixed && o.velocity != zero) {
+  if (o.kind == ObjectKind::Rigid && o.fixed && o.velocity != zero) {
     d.fail("velocity", "expected no motion for a fixed object, got " + vecString(o.velocity));
   }
-  if (o.fixed && o.angular_velocity != zero) {
+  if (o.kind == ObjectKind::Rigid && o.fixed && o.angular_velocity != zero) {
     d.fail("angular_velocity",
            "expected no motion for a fixed object, got " + vecString(o.angular_velocity));
   }

@@ -28,7 +28,7 @@ enum class RigidNodeMass { BodyShare, Node };
 enum class ContactNormal { Samples, Distance };
 
 enum class MaterialModel { FixedCorotated, NeoHookean, Snow, DruckerPrager, Water };
-enum class ObjectKind { Mpm, Rigid, Elastic };
+enum class ObjectKind { Mpm, Rigid, Elastic, Collider, Sink };
 enum class ElasticIntegrator { Explicit, Implicit };
 
 struct FramesDesc {
@@ -109,6 +109,28 @@ struct MeshDesc {
 
 using ShapeDesc = std::variant<BoxDesc, SphereDesc, MeshDesc>;
 
+// A prescribed motion (colliders, sources, sinks): poses at key times, each
+// a translation and an XYZ Euler rotation about the centroid of the shape's
+// volume as written. Keys are in increasing time.
+enum class Interpolation { Linear, Smooth };
+
+struct AnimationKeyDesc {
+  double time = 0.0;
+  Vec3Desc translate{0, 0, 0};
+  Vec3Desc rotate_deg{0, 0, 0};
+};
+
+struct AnimationDesc {
+  Interpolation interpolation = Interpolation::Linear;
+  std::vector<AnimationKeyDesc> keys;  // at least one
+};
+
+// An MPM object that is a source from `start` to `end` (seconds).
+struct EmitDesc {
+  double start = 0.0;
+  double end = 0.0;
+};
+
 struct ObjectDesc {
   std::string name;
   ObjectKind kind = ObjectKind::Mpm;
@@ -120,7 +142,9 @@ struct ObjectDesc {
   bool fixed = false;                  // rigid only
   double friction = 0.0;               // against MPM material (rigid, elastic)
   ElasticIntegrator integrator = ElasticIntegrator::Explicit;  // elastic only
-  double sample_spacing = 0.0;  // m, collision particle spacing (rigid, elastic); 0: dx / 2
+  double sample_spacing = 0.0;  // m, collision particle spacing (rigid, elastic, collider); 0: dx / 2
+  std::optional<AnimationDesc> animation;  // collider, sink, mpm source
+  std::optional<EmitDesc> emit;            // mpm only: a source
 };
 
 struct OutputDesc {

@@ -83,7 +83,7 @@ const CouplingStats& Solver::couplingStats() const {
 double Solver::solidSpeed() const {
   double s = 0.0;
   for (const RigidBody& b : world_.bodies)
-    if (!b.fixed) s = std::max(s, b.state.v.norm() + b.omega().norm() * b.radius);
+    if (!b.fixed || b.animated) s = std::max(s, b.state.v.norm() + b.omega().norm() * b.radius);
   return s;
 }
 
@@ -204,9 +204,16 @@ void Solver::predictSolids(double dt) {
   const Vec3d g(world_.scene.gravity[0], world_.scene.gravity[1], world_.scene.gravity[2]);
   for (RigidBody& b : world_.bodies) {
     if (!b.fixed) b.state.v += dt * g;
-    const size_t id = points_.addSolid(b.sample_mass, b.friction, b.fixed, b.fixed ? 0.0 : b.mass);
-    // Fixed bodies are scattered once and for all (GridCoupling::buildFixed).
-    if (b.fixed && coupling_->fixedBuilt()) continue;
+    // Fixed bodies that do not move are scattered once and for all
+    // (GridCoupling::buildFixed); animated colliders every step, at their
+    // pose now and with its exact velocity.
+    const SolidKind kind = !b.fixed ? SolidKind::Moving
+                           : b.animated ? SolidKind::Driven
+                                        : SolidKind::Static;
+    const size_t id = points_.addSolid(b.sample_mass, b.friction, kind, b.fixed ? 0.0 : b.mass);
+    if (kind == SolidKind::Static && coupling_->fixedBuilt()) continue;
+    // From the clock alone, so that a resumed run poses it the same.
+    if (b.animated) b.poseAt(world_.time);
     if (!b.fixed) {
       const Mat3d R = b.rotation();
       points_.centre[id] = b.state.x.cast<float>();
@@ -272,7 +279,7 @@ void Solver::predictSolids(double dt) {
       fem.forces(fem_force_);
       for (size_t i = 0; i < fem.nodes(); ++i) fem.v[i] += dt * (fem_force_[i] / fem.mass[i] + g);
     }
-    points_.addSolid(0.0f, e.friction, false, 0.0);
+    points_.addSolid(0.0f, e.friction, SolidKind::Moving, 0.0);
     for (size_t i = 0; i < fem.nodes(); ++i) {
       points_.x.push_back(fem.x[i].cast<float>());
       points_.v.push_back(fem.v[i].cast<float>());
@@ -314,7 +321,7 @@ FemContacts Solver::elasticContacts(const ElasticSolid& e, double dt) {
       pl.node = int(i);
       pl.n = R * b.n[q].cast<double>();
       const Vec3d surface = b.state.x + R * b.r[q].cast<double>() - double(b.phi[q]) * pl.n;
-      pl.velocity = b.fixed ? Vec3d::Zero() : b.velocityAt(surface);
+      pl.velocity = b.velocityAt(surface);
       // A node already inside stays no deeper, rather than being thrown out
       // with the velocity of its whole penetration (which would add energy):
       // moveElastic moves it out, position only.
@@ -460,6 +467,7 @@ void Solver::advanceSolids(double dt) {
   }
   contact_stats_ = resolveContacts(world_.bodies, contact_, dt);
   for (RigidBody& b : world_.bodies) {
+    if (b.animated) b.poseAt(world_.time + dt);
     b.advance(dt);
     if (!std::isfinite(b.state.x.sum() + b.state.v.sum() + b.state.L.sum() +
                        b.state.q_principal.coeffs().sum())) {

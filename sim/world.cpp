@@ -74,6 +74,31 @@ RigidBody buildRigidBody(const SceneDesc& scene, size_t i, const SolidSampler& s
                        toVec(obj.velocity), toVec(obj.angular_velocity), scene.domain.dx);
 }
 
+// A collider: a body of infinite mass whose reference point is the shape's
+// centroid as written, moved by its animation if it has one (else it is a
+// fixed body, scattered into the grid once).
+RigidBody buildCollider(const SceneDesc& scene, size_t i, const SolidSampler& sampler) {
+  const ObjectDesc& obj = scene.objects[i];
+  // The samples' mass only weighs the velocity of nodes the collider shares
+  // with other solids; any density does.
+  SolidSamples s = sampleSolid(scene, i, sampler, 1000.0);
+  const bool animated = obj.animation.has_value();
+  if (!animated) closeWallFaces(obj.shape, scene.domain, s.samples);
+  const Vec3d pivot = volumeCentroid(s.surface);
+  RigidBody b = makeRigidBody(int(i), obj.name, s.samples, std::move(s.surface), true,
+                              obj.friction, Vec3d::Zero(), Vec3d::Zero(), scene.domain.dx);
+  b.collider = true;
+  recentre(b, pivot);
+  b.pivot = pivot;
+  b.rest_principal = b.state.q_principal;
+  if (animated) {
+    b.animated = true;
+    b.animation = Animation(*obj.animation);
+    b.poseAt(0.0);
+  }
+  return b;
+}
+
 ElasticSolid buildElasticSolid(const SceneDesc& scene, size_t i, const SolidSampler& sampler) {
   const ObjectDesc& obj = scene.objects[i];
   const MaterialDesc& m = scene.materials[size_t(obj.material)];
@@ -128,11 +153,14 @@ World buildWorld(const SceneDesc& scene, const MeshSampler& mesh_sampler,
       world.object_particles[i] = world.elastics.back().fem.nodes();
       continue;
     }
-    if (obj.kind == ObjectKind::Rigid) {
-      world.bodies.push_back(buildRigidBody(scene, i, solid_sampler));
+    if (obj.kind == ObjectKind::Rigid || obj.kind == ObjectKind::Collider) {
+      world.bodies.push_back(obj.kind == ObjectKind::Rigid
+                                 ? buildRigidBody(scene, i, solid_sampler)
+                                 : buildCollider(scene, i, solid_sampler));
       world.object_particles[i] = world.bodies.back().r.size();
       continue;
     }
+    if (obj.kind == ObjectKind::Sink) continue;
     std::vector<Vec3f> points;
     try {
       points = sampleShape(obj.shape, domain, ppc, mesh_sampler);

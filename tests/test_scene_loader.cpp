@@ -423,6 +423,77 @@ TEST_F(SceneLoaderTest, KeyOfAnotherObjectKindIsAnUnknownKey) {
                        {"objects[3].fixed", "kind \"elastic\""}));
 }
 
+// Directing a shot: colliders, sinks, sources and their animation.
+json shotScene() {
+  json j = exampleScene();
+  j["objects"].push_back(json::parse(R"({
+    "name": "paddle", "kind": "collider", "friction": 0.4,
+    "shape": { "box": { "min": [0.4, 0.1, 0.4], "max": [0.6, 0.3, 0.45] } },
+    "animation": { "interpolation": "smooth",
+                   "keys": [ { "time": 0.0 },
+                             { "time": 1.0, "translate": [0.1, 0, 0], "rotate_deg": [0, 90, 0] } ] } })"));
+  j["objects"].push_back(json::parse(R"({
+    "name": "drain", "kind": "sink",
+    "shape": { "sphere": { "center": [0.9, 0.1, 0.9], "radius": 0.05 } } })"));
+  j["objects"].push_back(json::parse(R"({
+    "name": "hose", "kind": "mpm", "material": "sand", "velocity": [0, -1, 0],
+    "shape": { "box": { "min": [0.1, 0.8, 0.1], "max": [0.2, 0.9, 0.2] } },
+    "emit": { "start": 0.5, "end": 1.5 },
+    "animation": { "keys": [ { "time": 0.5 }, { "time": 1.5, "translate": [0.5, 0, 0] } ] } })"));
+  return j;
+}
+
+TEST_F(SceneLoaderTest, ReadsCollidersSinksSourcesAndAnimations) {
+  const SceneDesc s = load(shotScene());
+  const ObjectDesc& paddle = s.objects[4];
+  EXPECT_EQ(paddle.kind, ObjectKind::Collider);
+  EXPECT_TRUE(paddle.fixed);
+  EXPECT_DOUBLE_EQ(paddle.friction, 0.4);
+  ASSERT_TRUE(paddle.animation);
+  EXPECT_EQ(paddle.animation->interpolation, Interpolation::Smooth);
+  ASSERT_EQ(paddle.animation->keys.size(), 2u);
+  EXPECT_EQ(paddle.animation->keys[0].translate, (Vec3Desc{0, 0, 0}));
+  EXPECT_EQ(paddle.animation->keys[1].rotate_deg, (Vec3Desc{0, 90, 0}));
+  EXPECT_EQ(s.objects[5].kind, ObjectKind::Sink);
+  EXPECT_FALSE(s.objects[5].animation);
+  const ObjectDesc& hose = s.objects[6];
+  ASSERT_TRUE(hose.emit);
+  EXPECT_DOUBLE_EQ(hose.emit->start, 0.5);
+  EXPECT_DOUBLE_EQ(hose.emit->end, 1.5);
+  ASSERT_TRUE(hose.animation);
+  EXPECT_EQ(hose.animation->interpolation, Interpolation::Linear);
+}
+
+TEST_F(SceneLoaderTest, ShotKeysAreCheckedWithTheirPaths) {
+  // Keys out of order in time.
+  EXPECT_TRUE(contains(error(with(shotScene(), "/objects/4/animation/keys/1/time", 0.0)),
+                       {"objects[4].animation.keys[1].time", "increasing time",
+                        "keys[0].time = 0"}));
+  EXPECT_TRUE(contains(error(with(shotScene(), "/objects/4/animation/keys", json::array())),
+                       {"objects[4].animation.keys"}));
+  EXPECT_TRUE(contains(error(with(shotScene(), "/objects/4/animation/interpolation", "cubic")),
+                       {"objects[4].animation.interpolation", "\"linear\"", "\"smooth\""}));
+  EXPECT_TRUE(contains(error(with(shotScene(), "/objects/4/animation/keys/0/rotate", json::array({0, 0, 0}))),
+                       {"objects[4].animation.keys[0].rotate", "rotate_deg"}));
+  // A collider has no mass and no initial motion.
+  EXPECT_TRUE(contains(error(with(shotScene(), "/objects/4/density", 1000)),
+                       {"objects[4].density", "kind \"collider\"", "no mass"}));
+  EXPECT_TRUE(contains(error(with(shotScene(), "/objects/4/velocity", json::array({1, 0, 0}))),
+                       {"objects[4].velocity", "animation"}));
+  EXPECT_TRUE(contains(error(with(shotScene(), "/objects/5/friction", 0.3)),
+                       {"objects[5].friction", "kind \"sink\""}));
+  // emit: an end after its start.
+  EXPECT_TRUE(contains(error(with(shotScene(), "/objects/6/emit/end", 0.5)),
+                       {"objects[6].emit.end", "after start = 0.5"}));
+  EXPECT_TRUE(contains(error(with(shotScene(), "/objects/6/emit/start", -1)),
+                       {"objects[6].emit.start"}));
+  // Only sources move among MPM objects; only MPM objects emit.
+  EXPECT_TRUE(contains(error(without(shotScene(), "/objects/6/emit")),
+                       {"objects[6].animation", "\"emit\""}));
+  EXPECT_TRUE(contains(error(with(shotScene(), "/objects/2/emit", json{{"end", 1}})),
+                       {"objects[2].emit", "only MPM objects"}));
+}
+
 TEST_F(SceneLoaderTest, FlipRatioOnlyWithFlipTransfer) {
   EXPECT_TRUE(contains(error(with(exampleScene(), "/solver/flip_ratio", 0.9)),
                        {"solver.flip_ratio", "transfer is \"flip\""}));

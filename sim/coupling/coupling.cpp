@@ -12,7 +12,8 @@ namespace {
 constexpr int32_t kNoSlot = -1;
 
 // A node no solid reaches: no mass, and as far outside as can be.
-const GridCoupling::SolidNode kEmptyNode{0, {0, 0, 0}, {0, 0, 0}, 0, 0, -1e30f, {0, 0, 0}, {0, 0, 0}, 0, 0, 0};
+const GridCoupling::SolidNode kEmptyNode{0,         {0, 0, 0}, {0, 0, 0}, 0, 0, {0, 0, 0},
+                                         -1e30f,    {0, 0, 0}, {0, 0, 0}, 0, 0, 0};
 
 // Node offset inside a grid block.
 inline int localNode(int x, int y, int z) {
@@ -69,14 +70,14 @@ void SolidPoints::clear() {
   begin.clear();
   mass.clear();
   friction.clear();
-  fixed.clear();
+  kind.clear();
   body_mass.clear();
   centre.clear();
   inv_mass.clear();
   inv_inertia.clear();
 }
 
-size_t SolidPoints::addSolid(float uniform_mass, float mu, bool is_fixed, double whole_mass) {
+size_t SolidPoints::addSolid(float uniform_mass, float mu, SolidKind how, double whole_mass) {
   begin.push_back(x.size());
   body_mass.push_back(whole_mass);
   centre.push_back(Vec3f::Zero());
@@ -84,7 +85,7 @@ size_t SolidPoints::addSolid(float uniform_mass, float mu, bool is_fixed, double
   inv_inertia.push_back(Mat3f::Zero());
   mass.push_back(uniform_mass);
   friction.push_back(mu);
-  fixed.push_back(is_fixed ? 1 : 0);
+  kind.push_back(how);
   return mass.size() - 1;
 }
 
@@ -109,7 +110,7 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
   std::vector<Run> runs;
   if (!fixed_built_) buildFixed(pts, p);
   for (size_t s = 0; s < pts.solids(); ++s) {
-    if (pts.fixed[s]) continue;  // scattered once, in buildFixed
+    if (pts.kind[s] == SolidKind::Static) continue;  // scattered once, in buildFixed
     const size_t e = s + 1 < pts.begin.size() ? pts.begin[s + 1] : n;
     for (size_t q = pts.begin[s]; q < e; ++q) {
       if (runs.empty() || runs.back().solid != s || runs.back().key != point_key_[q] ||
@@ -196,6 +197,7 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
       for (uint32_t o = blk.first; o < blk.last; o += 3) {
         const uint32_t s = order_[o + 2];
         const float mu = pts.friction[s];
+        const bool driven = pts.kind[s] == SolidKind::Driven;
         for (uint32_t q = order_[o]; q < order_[o + 1]; ++q) {
           const float m = pts.point_mass[q];
           const Vec3f& v = pts.v[q];
@@ -211,7 +213,15 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
               g.n[d] += w * nq[d];
             }
             g.mu += w * m * mu;
-            g.solid = g.solid == 0 || g.solid == tag ? tag : -1;
+            if (driven) {
+              // Infinite mass, like a fixed solid, but moving.
+              g.fixed_m += w * m;
+              for (int d = 0; d < 3; ++d) g.fixed_p[d] += w * m * v[d];
+              g.fixed_solid = g.fixed_solid == 0 || g.fixed_solid == tag ? tag : -1;
+              g.solid = -1;  // never a moving body's node
+            } else {
+              g.solid = g.solid == 0 || g.solid == tag ? tag : -1;
+            }
             g.owner = g.owner == 0 || g.owner == tag ? tag : -1;
           });
         }
@@ -227,7 +237,7 @@ void GridCoupling::buildFixed(const SolidPoints& pts, const TransferParams& p) {
   fixed_built_ = true;
   std::map<uint64_t, std::vector<SolidNode>> blocks;
   for (size_t s = 0; s < pts.solids(); ++s) {
-    if (!pts.fixed[s]) continue;
+    if (pts.kind[s] != SolidKind::Static) continue;
     const size_t e = s + 1 < pts.begin.size() ? pts.begin[s + 1] : pts.size();
     const float m = pts.mass[s], mu = pts.friction[s];
     for (size_t q = pts.begin[s]; q < e; ++q) {
@@ -334,7 +344,10 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
                     : -1;
       c.m_mpm = g.m;
       c.m_vol = sn.m;
-      c.v_vol = c.fixed ? Vec3f(Vec3f::Zero()) : Vec3f(Vec3f(sn.p[0], sn.p[1], sn.p[2]) / sn.m);
+      // Solids of infinite mass set the node's solid velocity alone: zero
+      // for fixed ones, a driven collider's own.
+      c.v_vol = c.fixed ? Vec3f(Vec3f(sn.fixed_p[0], sn.fixed_p[1], sn.fixed_p[2]) / sn.fixed_m)
+                        : Vec3f(Vec3f(sn.p[0], sn.p[1], sn.p[2]) / sn.m);
       c.v_mpm = Vec3f(g.v[0], g.v[1], g.v[2]);
       c.v_cmp = before ? pre_[i] : c.v_mpm;
       // The distance's normal where one solid with a distance holds the
@@ -364,7 +377,7 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
   if (single) {
     // One grid: both sides move with the combined velocity.
     for (const Shared& c : shared_) {
-      const Vec3f vc = c.fixed ? Vec3f(Vec3f::Zero())
+      const Vec3f vc = c.fixed ? c.v_vol
                                : Vec3f((c.m_vol * c.v_vol + c.m_mpm * c.v_mpm) / (c.m_vol + c.m_mpm));
       GridNode& g = grid[c.g];
       if (c.fixed) addNodeLoad(c.fixed_solid, c, c.m_mpm * (c.v_mpm - vc));

@@ -16,6 +16,11 @@
 
 namespace triad {
 
+// How a solid moves: by the coupling (a rigid body, an elastic solid), not
+// at all (scattered once), or as prescribed (an animated collider: infinite
+// mass, scattered every step with its own velocity).
+enum class SolidKind : uint8_t { Moving = 0, Static = 1, Driven = 2 };
+
 // The collision particles of every solid for one step, world space.
 // Points of solid s are [begin[s], begin[s+1]), the last solid's up to size().
 struct SolidPoints {
@@ -28,7 +33,7 @@ struct SolidPoints {
   std::vector<size_t> begin;
   std::vector<float> mass;      // per solid: mass per point if uniform (rigid), kg
   std::vector<float> friction;  // per solid: Coulomb coefficient against MPM material
-  std::vector<uint8_t> fixed;   // per solid: immovable (infinite mass)
+  std::vector<SolidKind> kind;  // per solid; Static and Driven have infinite mass
   // Per solid: the mass that moves as one with each of its nodes. A rigid
   // body's node carries the whole body (its total mass); 0 for solids whose
   // nodes move on their own (their node mass is all there is).
@@ -43,7 +48,7 @@ struct SolidPoints {
   size_t solids() const { return mass.size(); }
   void clear();
   // Starts the points of a new solid; returns its index.
-  size_t addSolid(float uniform_mass, float mu, bool is_fixed, double whole_mass);
+  size_t addSolid(float uniform_mass, float mu, SolidKind how, double whole_mass);
 };
 
 // What a coupling step did, for tests and the run record.
@@ -92,11 +97,11 @@ class GridCoupling {
   bool fixedBuilt() const { return fixed_built_; }
   size_t bytes() const;
 
-  // Solid data on one node: sums of w m, w m v, w n, w m mu, w m [fixed],
-  // which moving solid it holds and which fixed one (solid + 1; 0 none
-  // yet; -1 several).
+  // Solid data on one node: sums of w m, w m v, w n, w m mu, and of w m
+  // and w m v over solids of infinite mass; which moving solid it holds and
+  // which fixed one (solid + 1; 0 none yet; -1 several).
   struct SolidNode {
-    float m, p[3], n[3], mu, fixed_m;
+    float m, p[3], n[3], mu, fixed_m, fixed_p[3];
     // Signed distance to the solids' surface, extrapolated from each sample
     // along its normal (phi_q + n_q . (x_i - x_q)) and the largest taken: a
     // body's own distance inside it and across its nearest face, exact for

@@ -113,4 +113,24 @@ TriSurface primitiveSurface(const ShapeDesc& shape) {
   return {};
 }
 
+Vec3d volumeCentroid(const TriSurface& surface) {
+  // Signed tetrahedra from the origin: volume det/6, centroid at the
+  // mean of their four corners.
+  double volume = 0.0;
+  Vec3d moment = Vec3d::Zero(), mean = Vec3d::Zero();
+  for (const auto& t : surface.triangles) {
+    const Vec3d a = surface.vertices[t[0]].cast<double>(), b = surface.vertices[t[1]].cast<double>(),
+                c = surface.vertices[t[2]].cast<double>();
+    const double v = a.dot(b.cross(c)) / 6.0;
+    volume += v;
+    moment += v * (a + b + c) / 4.0;
+  }
+  for (const Vec3f& v : surface.vertices) mean += v.cast<double>();
+  if (!surface.vertices.empty()) mean /= double(surface.vertices.size());
+  double extent = 0.0;
+  for (const Vec3f& v : surface.vertices) extent = std::max(extent, (v.cast<double>() - mean).norm());
+  if (std::abs(volume) <= 1e-12 * std::pow(extent, 3)) return mean;
+  return moment / volume;
+}
+
 }  // namespace triad

@@ -41,6 +41,10 @@ struct TriSurface {
   std::vector<std::array<uint32_t, 3>> triangles;
 };
 
+// Centroid of the volume a closed surface bounds (the mean of its vertices
+// if it bounds none).
+Vec3d volumeCentroid(const TriSurface& surface);
+
 // A solid's collision particles and its surface, world space at t = 0.
 struct SolidSamples {
   CollisionSamples samples;

@@ -21,7 +21,16 @@ Vec3d RigidBody::applyInverseInertia(const Vec3d& a) const {
   return R * (R.transpose() * a).cwiseQuotient(moments);
 }
 
-Vec3d RigidBody::omega() const { return applyInverseInertia(state.L); }
+Vec3d RigidBody::omega() const { return fixed ? spin : applyInverseInertia(state.L); }
+
+void RigidBody::poseAt(double t) {
+  const Pose p = animation.at(t);
+  // The reference point is the pivot itself (recentre): it only translates.
+  state.x = pivot + p.translate;
+  state.q_principal = (p.rotation * rest_principal).normalized();
+  state.v = p.velocity;
+  spin = p.omega;
+}
 
 double RigidBody::kineticEnergy() const {
   const Vec3d pi = rotation().transpose() * state.L;
@@ -146,6 +155,28 @@ RigidBody makeRigidBody(int object, const std::string& name, const CollisionSamp
     b.state.L = mp.inertia * angular_velocity;
   }
   return b;
+}
+
+void recentre(RigidBody& b, const Vec3d& c) {
+  // World at t = 0 is the rest frame; the principal frame rotates it.
+  const Vec3d d = b.state.x - c;  // old centre from the new one, rest frame
+  const Vec3f dp = (b.principal.conjugate() * d).cast<float>();
+  double rmax = 0.0;
+  for (Vec3f& r : b.r) {
+    r += dp;
+    rmax = std::max(rmax, double(r.norm()));
+  }
+  for (Vec3f& v : b.surface.vertices) v += dp;
+  b.lattice_origin += d;
+  // The bounding sphere must hold the deep samples too: every lattice corner.
+  for (int k = 0; k < 8; ++k) {
+    Vec3d corner = b.lattice_origin;
+    for (int a = 0; a < 3; ++a)
+      if (k >> a & 1) corner[a] += double(b.spacing) * (b.cell_dims[a] - 1);
+    rmax = std::max(rmax, corner.norm());
+  }
+  b.radius = static_cast<float>(rmax + b.spacing);
+  b.state.x = c;
 }
 
 TriSurface worldSurface(const RigidBody& body) {

@@ -13,8 +13,9 @@
 #include <string>
 #include <vector>
 
-#include "sim/solids/collision_particles.h"
 #include "sim/math.h"
+#include "sim/shot/animation.h"
+#include "sim/solids/collision_particles.h"
 
 namespace triad {
 
@@ -29,8 +30,18 @@ struct RigidState {
 struct RigidBody {
   int object = -1;  // index into SceneDesc::objects
   std::string name;
-  bool fixed = false;
+  bool fixed = false;     // infinite mass: a fixed rigid body or a collider
+  bool collider = false;  // a collider object (kind "collider")
   float friction = 0.0f;  // Coulomb coefficient against MPM material
+
+  // An animated collider: its pose is the animation's at every time, its
+  // centre (state.x) the shape's centroid as written moved by the pose.
+  // `spin` is its angular velocity (zero for other fixed bodies).
+  bool animated = false;
+  Animation animation;
+  Vec3d pivot = Vec3d::Zero();          // centroid of the shape as written
+  Quatd rest_principal = Quatd::Identity();  // q_principal at t = 0
+  Vec3d spin = Vec3d::Zero();
 
   // Mass properties.
   double mass = 0.0;
@@ -79,6 +90,9 @@ struct RigidBody {
   // sample lattice (outside, or deeper than the kept samples).
   bool distanceAt(const Vec3d& p, const Mat3d& R, double& phi_out, Vec3d& n_out) const;
 
+  // An animated body: pose, velocity and spin at time t.
+  void poseAt(double t);
+
   // Advance position and orientation over dt with the current velocities:
   // x += v dt, and the free rotation by a symmetric splitting into rotations
   // about the principal axes (Dullweber, Leimkuhler, McLachlan 1997), which
@@ -97,6 +111,12 @@ constexpr double kCouplingDepth = 3.0;
 RigidBody makeRigidBody(int object, const std::string& name, const CollisionSamples& samples,
                         TriSurface surface, bool fixed, double friction, const Vec3d& velocity,
                         const Vec3d& angular_velocity, double dx);
+
+// Makes world point c (at t = 0) the body's reference point instead of its
+// centre of mass: state.x, the samples, the lattice and the surface move
+// with it. For colliders, whose torque is about their animated centroid and
+// whose mass plays no part.
+void recentre(RigidBody& body, const Vec3d& c);
 
 // World-space surface of a body now (for caches and previews).
 TriSurface worldSurface(const RigidBody& body);
