@@ -73,7 +73,7 @@ std::string checkParticlesPly(const std::string& path, size_t particles) {
   if (!h) return fs::exists(path) ? "no PLY header" : "missing";
   const size_t vertices = h->elements.count("vertex") ? h->elements.at("vertex") : 0;
   if (vertices != particles)
-    return std::to_string(vertices) + " particles, the scene has " + std::to_string(particles);
+    return std::to_string(vertices) + " particles, the checkpoint has " + std::to_string(particles);
   return checkPlySize(path, *h, vertices * 36);
 }
 
@@ -91,11 +91,12 @@ std::string checkBodyPly(const std::string& path, const TriSurface& surface) {
 
 // What is wrong with the frame's cache files (empty when they are complete).
 // Fills `logs` with the body tables' rows up to frame.
+// `particles`: the checkpoint's count (sources and sinks change it).
 std::string checkFrameCaches(const SceneDesc& scene, const std::string& out_dir, int frame,
-                             const World& world, BodyLogs& logs) {
+                             const World& world, size_t particles, BodyLogs& logs) {
   if (scene.output.ply) {
     const std::string p = particlesPath(out_dir, frame);
-    const std::string why = checkParticlesPly(p, world.particleCount());
+    const std::string why = checkParticlesPly(p, particles);
     if (!why.empty()) return p + ": " + why;
   }
   std::vector<std::string> names;
@@ -318,7 +319,9 @@ std::optional<ResumePoint> resumeFromCheckpoint(const SceneDesc& scene, const st
                               std::to_string(scene.frames.count));
       // The frame's cache files must be complete too.
       BodyLogs logs;
-      const std::string why = checkFrameCaches(scene, out_dir, ckpt.frame, world, logs);
+      size_t particles = 0;
+      for (const ParticleSet& set : ckpt.sets) particles += set.size();
+      const std::string why = checkFrameCaches(scene, out_dir, ckpt.frame, world, particles, logs);
       if (!why.empty()) throw CheckpointError("its frame's cache is incomplete: " + why);
       ResumePoint rp{ckpt.frame, path, ckpt.record, std::move(logs)};
       restoreCheckpoint(std::move(ckpt), world, solver);

@@ -164,9 +164,14 @@ int runScene(const RunOptions& options) {
     const PhaseTimes& t = solver.phaseTimes();
     rec.phase_seconds = {{"bin", t.bin},   {"stress", t.stress}, {"p2g", t.p2g},
                          {"grid", t.grid}, {"g2p", t.g2p},       {"solids", t.solids},
-                         {"solve", t.total()},
+                         {"shot", t.shot},   {"solve", t.total()},
                          {"output", output_seconds}};
     const StepRecord steps = runSteps();
+    rec.particles = world.particleCount();
+    rec.emitted.clear();
+    rec.removed.clear();
+    for (const Source& s : world.sources) rec.emitted.emplace_back(s.name, s.emitted);
+    for (const Sink& s : world.sinks) rec.removed.emplace_back(s.name, s.removed);
     rec.simulated_time = world.time;
     rec.steps = steps.steps;
     rec.dt_min = steps.dt_min;

@@ -22,6 +22,7 @@ constexpr char kMagic[8] = {'T', 'R', 'I', 'A', 'D', 'C', 'K', 'P'};
 constexpr char kEndMagic[8] = {'T', 'R', 'I', 'A', 'D', 'E', 'N', 'D'};
 constexpr uint32_t kHeaderBytes = 64;
 constexpr uint32_t kMaxNameBytes = 4096;
+constexpr uint32_t kMaxObjects = 65535;  // as the scene loader allows
 constexpr size_t kTrailerBytes = 16;
 
 #pragma pack(push, 1)
@@ -133,6 +134,7 @@ size_t payloadBytes(const std::string& scene_hash, const World& world) {
   n += 4;
   for (const ElasticSolid& e : world.elastics)
     n += 4 + e.name.size() + 8 + arrayBytes(e.fem.x) + arrayBytes(e.fem.v);
+  n += 4 + 4 + 8 * (world.sources.size() + world.sinks.size());
   return n;
 }
 
@@ -242,6 +244,10 @@ void writeCheckpoint(const std::string& path, int frame, const std::string& scen
       w.array(e.fem.x);
       w.array(e.fem.v);
     }
+    w.pod(world.next_id);
+    w.pod(uint32_t(world.sources.size() + world.sinks.size()));
+    for (const Source& src : world.sources) w.pod(uint64_t(src.emitted));
+    for (const Sink& k : world.sinks) w.pod(uint64_t(k.removed));
 
     // Trailer: checksum of all the above.
     const uint64_t sum = w.checksum();
@@ -329,6 +335,10 @@ Checkpoint readCheckpoint(const std::string& path) {
     r.array(e.v, n);
     c.elastics.push_back(std::move(e));
   }
+  c.next_id = r.pod<uint32_t>();
+  const uint32_t counts = r.pod<uint32_t>();
+  if (counts > kMaxObjects) throw CheckpointError("more sources and sinks than objects");
+  for (uint32_t k = 0; k < counts; ++k) c.shot_counts.push_back(r.pod<uint64_t>());
   if (!r.atEnd()) throw CheckpointError("payload longer than its contents");
   return c;
 }
@@ -367,6 +377,17 @@ void restoreCheckpoint(Checkpoint&& c, World& world, Solver& solver) {
         c.elastics[k].x.size() != world.elastics[k].fem.nodes())
       throw CheckpointError("elastic solid " + std::to_string(k) + " (\"" + c.elastics[k].name +
                             "\") does not match the scene's");
+  if (c.shot_counts.size() != world.sources.size() + world.sinks.size())
+    throw CheckpointError(std::to_string(c.shot_counts.size()) +
+                          " sources and sinks, the scene has " +
+                          std::to_string(world.sources.size() + world.sinks.size()));
+  if (c.next_id < world.next_id)
+    throw CheckpointError("next particle id " + std::to_string(c.next_id) +
+                          " is below the scene's first " + std::to_string(world.next_id));
+  for (size_t k = 0; k < world.sources.size(); ++k) world.sources[k].emitted = c.shot_counts[k];
+  for (size_t k = 0; k < world.sinks.size(); ++k)
+    world.sinks[k].removed = c.shot_counts[world.sources.size() + k];
+  world.next_id = c.next_id;
   for (size_t k = 0; k < c.elastics.size(); ++k) {
     world.elastics[k].fem.x = std::move(c.elastics[k].x);
     world.elastics[k].fem.v = std::move(c.elastics[k].v);

@@ -4,7 +4,7 @@
 // uninterrupted run would. Materials are not stored: they are rebuilt from
 // the scene, whose hash the checkpoint records.
 //
-// File (checkpoints/state.FFFF.bin), little-endian, version 3:
+// File (checkpoints/state.FFFF.bin), little-endian, version 4:
 //   header   char[8] "TRIADCKP", u32 format version, u32 header bytes (= 64),
 //            u64 payload bytes, i32 frame, u32 set count, f64 time,
 //            i64 steps, u8[16] reserved (zero)
@@ -21,6 +21,9 @@
 //            elastics     (u32 count; per elastic solid, in world order: u32
 //                         name length, name bytes, u64 node count n, then
 //                         f64 x[3 n] and v[3 n]: node positions, velocities)
+//            shot         (u32 next particle id; u32 count; per source then
+//                         per sink, in world order: u64 particles emitted or
+//                         removed so far)
 //   trailer  u64 checksum of header and payload (FNV-1a 64 over 8-byte words),
 //            char[8] "TRIADEND"
 // Other versions are refused (a resume then starts over from frame 0).
@@ -56,9 +59,11 @@ struct Checkpoint {
     std::vector<Vec3d> x, v;  // node positions and velocities
   };
   std::vector<Elastic> elastics;  // world order
+  uint32_t next_id = 0;            // the world's next particle id
+  std::vector<uint64_t> shot_counts;  // emitted per source, then removed per sink
 };
 
-constexpr uint32_t kCheckpointVersion = 3;
+constexpr uint32_t kCheckpointVersion = 4;
 
 // Writes the world's particle sets, rigid body states and clock, the solver
 // state and the frame atomically to `path`. Throws std::runtime_error naming

@@ -32,6 +32,15 @@ void writeRunRecord(const std::string& path, const RunRecord& rec) {
   nlohmann::ordered_json per_object = nlohmann::ordered_json::object();
   for (const auto& [name, n] : rec.object_particles) per_object[name] = n;
   j["particles"] = {{"total", rec.particles}, {"per_object", per_object}};
+  // Sources and sinks: particles made and removed per object so far.
+  if (!rec.emitted.empty() || !rec.removed.empty()) {
+    nlohmann::ordered_json emitted = nlohmann::ordered_json::object(),
+                           removed = nlohmann::ordered_json::object();
+    for (const auto& [name, n] : rec.emitted) emitted[name] = n;
+    for (const auto& [name, n] : rec.removed) removed[name] = n;
+    j["particles"]["emitted"] = emitted;
+    j["particles"]["removed"] = removed;
+  }
   j["bodies"] = rec.bodies;
   j["frames"] = {{"requested", rec.frames_requested}, {"written", rec.frames_written}};
   j["simulated_time"] = rec.simulated_time;

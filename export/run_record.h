@@ -12,8 +12,10 @@ struct RunRecord {
   std::string scene_path;
   std::string scene_hash;  // "fnv1a64:<hex>" of the scene file's bytes
   int threads = 1;
-  size_t particles = 0;
-  std::vector<std::pair<std::string, size_t>> object_particles;  // in scene order
+  size_t particles = 0;  // now (sources and sinks change it)
+  std::vector<std::pair<std::string, size_t>> object_particles;  // in scene order, at t = 0
+  // Particles made by each source and removed by each sink so far, scene order.
+  std::vector<std::pair<std::string, uint64_t>> emitted, removed;
   size_t bodies = 0;  // rigid bodies (bodies/NAME.FFFF.ply, bodies/rigid_states.csv)
   int frames_requested = 0;
   int frames_written = 0;  // frames 0..frames_written-1 are complete on disk

@@ -92,7 +92,8 @@ double Solver::stableDt() const {
   for (float w : wave_speed_) c = std::max(c, w);
   // Hardened snow is stiffer: its wave speed grows with the square root.
   c *= std::sqrt(max_stiffness_scale_);
-  const double speed = double(c) + std::max(double(max_speed_), solidSpeed());
+  const double speed =
+      double(c) + std::max({double(max_speed_), solidSpeed(), sourceSpeed(world_.sources, world_.time)});
   const SolverDesc& s = world_.scene.solver;
   double dt = s.max_dt;
   if (speed > 0.0) dt = std::min(dt, s.cfl * world_.scene.domain.dx / speed);
@@ -112,6 +113,8 @@ double Solver::stableDt() const {
 void Solver::step(double dt) {
   const float fdt = static_cast<float>(dt);
   const bool solids = coupling_ != nullptr;
+  if (!world_.sources.empty()) emitSources();  // refill the sources' shapes
+  has_particles_ = world_.particleCount() > 0;
   if (solids) predictSolids(dt);  // solids' own step: v_q* of every collision particle
   if (has_particles_) {
     binParticles();
@@ -122,6 +125,7 @@ void Solver::step(double dt) {
     if (solids) collideSolids();    // step 6
     gridToParticles(fdt);           // step 7
     if (solids) pushOutOfSolids(dt);  // no particle stays inside a body
+    if (!world_.sinks.empty()) drainSinks(dt);  // remove what the sinks hold
   }
   if (solids) advanceSolids(dt);    // step 8, then contacts and rigid motion
   for (BodyLoad& l : loads_) l.time += dt;
@@ -155,6 +159,20 @@ void Solver::advanceTo(double t, const std::function<void(double)>& on_step) {
     world_.time = last ? t : world_.time + dt;
     if (on_step) on_step(dt);
   }
+}
+
+void Solver::emitSources() {
+  PhaseTimer timer(times_.shot);
+  const size_t made =
+      emitFromSources(world_.sources, world_.sets, world_.scene.domain, world_.time, world_.next_id);
+  // New particles move at their source's speed from this step on.
+  if (made > 0)
+    max_speed_ = std::max(max_speed_, float(sourceSpeed(world_.sources, world_.time)));
+}
+
+void Solver::drainSinks(double dt) {
+  PhaseTimer timer(times_.shot);
+  removeInSinks(world_.sinks, world_.sets, world_.time + dt);
 }
 
 void Solver::binParticles() {

@@ -18,7 +18,8 @@ namespace triad {
 struct PhaseTimes {
   double bin = 0, stress = 0, p2g = 0, grid = 0, g2p = 0;
   double solids = 0;  // coupling transfers, contacts and rigid integration
-  double total() const { return bin + stress + p2g + grid + g2p + solids; }
+  double shot = 0;    // sources' emission and sinks' removal
+  double total() const { return bin + stress + p2g + grid + g2p + solids + shot; }
 };
 
 // What MPM material and elastic solids did to one rigid body since the
@@ -90,6 +91,8 @@ class Solver {
   void particlesToGrid();
   void updateGrid(float dt);
   void gridToParticles(float dt);
+  void emitSources();
+  void drainSinks(double dt);
   void predictSolids(double dt);
   void scatterSolids();
   void collideSolids();

@@ -113,6 +113,46 @@ ElasticSolid buildElasticSolid(const SceneDesc& scene, size_t i, const SolidSamp
   }
 }
 
+// The centroid of a primitive as written; of a mesh, the mean of its samples.
+Vec3d shapeCentroid(const ShapeDesc& shape, const std::vector<Vec3f>& samples) {
+  if (const auto* b = std::get_if<BoxDesc>(&shape)) return 0.5 * (toVec(b->min) + toVec(b->max));
+  if (const auto* s = std::get_if<SphereDesc>(&shape)) return toVec(s->center);
+  Vec3d m = Vec3d::Zero();
+  for (const Vec3f& p : samples) m += p.cast<double>();
+  return samples.empty() ? m : Vec3d(m / double(samples.size()));
+}
+
+Sink buildSink(const SceneDesc& scene, size_t i, const SolidSampler& sampler) {
+  const ObjectDesc& obj = scene.objects[i];
+  Sink k;
+  k.object = int(i);
+  k.name = obj.name;
+  k.shape = obj.shape;
+  std::vector<Vec3f> points;
+  if (std::holds_alternative<MeshDesc>(obj.shape)) {
+    // Inside the mesh: the cells of a half-cell lattice that hold a sample.
+    SolidSamples s = sampleSolid(scene, i, sampler, 1000.0);
+    points = s.samples.x;
+    k.h = s.samples.spacing;
+    Vec3d lo = Vec3d::Constant(1e300), hi = -lo;
+    for (const Vec3f& p : points) {
+      lo = lo.cwiseMin(p.cast<double>());
+      hi = hi.cwiseMax(p.cast<double>());
+    }
+    k.lattice_lo = lo;
+    for (int d = 0; d < 3; ++d) k.dims[d] = int(std::lround((hi[d] - lo[d]) / k.h)) + 1;
+    k.inside.assign(size_t(k.dims.prod()), 0);
+    for (const Vec3f& p : points) {
+      Eigen::Vector3i c;
+      for (int d = 0; d < 3; ++d) c[d] = int(std::lround((p[d] - lo[d]) / k.h));
+      k.inside[(size_t(c.x()) * k.dims.y() + c.y()) * k.dims.z() + c.z()] = 1;
+    }
+  }
+  if (obj.animation) k.placement.animation = Animation(*obj.animation);
+  k.placement.pivot = shapeCentroid(obj.shape, points);
+  return k;
+}
+
 }  // namespace
 
 size_t World::particleCount() const {
@@ -160,7 +200,10 @@ World buildWorld(const SceneDesc& scene, const MeshSampler& mesh_sampler,
       world.object_particles[i] = world.bodies.back().r.size();
       continue;
     }
-    if (obj.kind == ObjectKind::Sink) continue;
+    if (obj.kind == ObjectKind::Sink) {
+      world.sinks.push_back(buildSink(scene, i, solid_sampler));
+      continue;
+    }
     std::vector<Vec3f> points;
     try {
       points = sampleShape(obj.shape, domain, ppc, mesh_sampler);
@@ -188,10 +231,20 @@ World buildWorld(const SceneDesc& scene, const MeshSampler& mesh_sampler,
       world.sets.push_back(std::move(set));
     }
     ParticleSet& set = world.sets[it->second];
+    if (obj.emit) {
+      // A source holds no particles before it starts: its points are sites.
+      const Vec3d pivot = shapeCentroid(obj.shape, points);
+      world.sources.push_back(
+          makeSource(int(i), obj, it->second, std::move(points), domain, ppc, pivot));
+      continue;
+    }
     const Vec3f vel(float(obj.velocity[0]), float(obj.velocity[1]), float(obj.velocity[2]));
     for (const Vec3f& p : points) set.push(p, vel, next_id++, static_cast<uint16_t>(i));
     world.object_particles[i] = points.size();
   }
+  world.next_id = next_id;
+  // Sources that start at once are full in the first frame.
+  emitFromSources(world.sources, world.sets, domain, 0.0, world.next_id);
   return world;
 }
 

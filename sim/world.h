@@ -10,6 +10,7 @@
 #include "sim/solids/rigid_body.h"
 #include "sim/mpm/sampling.h"
 #include "sim/scene_desc.h"
+#include "sim/shot/emitters.h"
 
 namespace triad {
 
@@ -18,7 +19,10 @@ struct World {
   std::vector<ParticleSet> sets;         // one per material (MPM objects)
   std::vector<RigidBody> bodies;         // rigid objects, in scene order
   std::vector<ElasticSolid> elastics;    // elastic objects, in scene order
-  std::vector<size_t> object_particles;  // particle (or collision sample) count per scene object
+  std::vector<Source> sources;           // MPM objects with emit, in scene order
+  std::vector<Sink> sinks;               // sink objects, in scene order
+  std::vector<size_t> object_particles;  // particle (or collision sample) count per scene object at t = 0
+  uint32_t next_id = 0;                  // the id the next particle made takes
   double time = 0.0;                     // simulated time, s
   int64_t steps = 0;                     // substeps taken
 

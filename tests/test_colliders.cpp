@@ -125,8 +125,8 @@ TEST(Collider, MovingFloorCarriesARigidBox) {
 
 // From the command line: the collider's surface in bodies/ each frame where
 // its animation puts it, a forces.csv row for it each frame, its pose in
-// rigid_states.csv; and a run killed mid-way and resumed writes the same
-// bytes as one that was not.
+// rigid_states.csv, the source's and sink's counts in run.json; and a run
+// killed mid-way and resumed, or run on two threads, writes the same bytes.
 TEST(Collider, CacheFollowsTheAnimationAndResumesByteForByte) {
   const std::filesystem::path dir = test::tempDir("collider_cli");
   json j = test::baseScene("collider_cli", {0.6, 0.4, 0.4}, 0.025);
@@ -142,6 +142,13 @@ TEST(Collider, CacheFollowsTheAnimationAndResumesByteForByte) {
         {{"interpolation", "smooth"},
          {"keys", json::array({{{"time", 0.0}},
                                {{"time", 0.2}, {"translate", {0.2, 0, 0}}, {"rotate_deg", {0, 0, -20}}}})}}}});
+  // A hopper pouring sand in, and a drain at the far end taking it out.
+  j["objects"].push_back({{"name", "hopper"}, {"kind", "mpm"}, {"material", "sand"},
+                          {"velocity", {0, -1, 0}},
+                          {"shape", box({0.4, 0.25, 0.15}, {0.5, 0.3, 0.25})},
+                          {"emit", {{"start", 0.05}, {"end", 0.15}}}});
+  j["objects"].push_back({{"name", "drain"}, {"kind", "sink"},
+                          {"shape", box({0.45, 0.0, 0.0}, {0.6, 0.15, 0.4})}});
   j["output"] = {{"vdb", false}, {"png", false}};
   const std::string scene = test::writeScene(dir, j);
   const auto out = dir / "out", ref = dir / "ref";
@@ -177,6 +184,15 @@ TEST(Collider, CacheFollowsTheAnimationAndResumesByteForByte) {
   EXPECT_EQ(rows, 4);
   EXPECT_LT(fx_sum, 0.0);
 
+  // run.json counts what the hopper made and the drain took.
+  const json rec = json::parse(test::slurp(ref / "run.json"));
+  const uint64_t emitted = rec["particles"]["emitted"]["hopper"].get<uint64_t>();
+  const uint64_t removed = rec["particles"]["removed"]["drain"].get<uint64_t>();
+  EXPECT_GT(emitted, 500u);
+  EXPECT_GT(removed, 500u);
+  EXPECT_EQ(rec["particles"]["total"].get<uint64_t>(),
+            rec["particles"]["per_object"]["pile"].get<uint64_t>() + emitted - removed);
+
   // Killed in frame 3, resumed; and on two threads.
   const int64_t steps = json::parse(test::slurp(ref / "run.json"))["steps"].get<int64_t>();
   r = run(out, "--threads 1", "TRIAD_FAULT_STEP=" + std::to_string(steps * 6 / 10));
@@ -187,6 +203,9 @@ TEST(Collider, CacheFollowsTheAnimationAndResumesByteForByte) {
   const auto two = dir / "two";
   ASSERT_EQ(run(two, "--threads 2", "").status, 0);
   for (const auto& o : {out, two}) {
+    const json other = json::parse(test::slurp(o / "run.json"));
+    EXPECT_EQ(other["particles"]["emitted"], rec["particles"]["emitted"]) << o;
+    EXPECT_EQ(other["particles"]["removed"], rec["particles"]["removed"]) << o;
     EXPECT_TRUE(test::slurp(o / "bodies" / "forces.csv") == forces) << o;
     EXPECT_TRUE(test::slurp(o / "bodies" / "rigid_states.csv") == states) << o;
     for (int f = 0; f <= 4; ++f) {
