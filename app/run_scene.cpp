@@ -93,7 +93,14 @@ int runScene(const RunOptions& options) {
 
   rec.scene_name = scene.name;
   rec.scene_path = scene.source_path;
-  rec.scene_hash = hashFile(scene.source_path);
+  // The scene file's bytes, and every mesh sequence's: a checkpoint is
+  // refused when a frame of a deforming collider has changed.
+  std::vector<std::string> hashed{scene.source_path};
+  for (const ObjectDesc& o : scene.objects)
+    if (const auto* m = std::get_if<MeshDesc>(&o.shape); m && m->sequence_digits > 0)
+      for (int f = 0; f <= scene.frames.count; ++f)
+        hashed.push_back(sequenceFrame(m->resolved_path, m->sequence_digits, f));
+  rec.scene_hash = hashFiles(hashed);
   rec.quality = options.quality;
   rec.dx = scene.domain.dx;
   rec.particles_per_cell = scene.solver.particles_per_cell;

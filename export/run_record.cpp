@@ -58,15 +58,19 @@ void writeRunRecord(const std::string& path, const RunRecord& rec) {
   writeFileAtomically(path, [&](std::ostream& out) { out << j.dump(2) << "\n"; });
 }
 
-std::string hashFile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
+std::string hashFile(const std::string& path) { return hashFiles({path}); }
+
+std::string hashFiles(const std::vector<std::string>& paths) {
   uint64_t h = 1469598103934665603ull;
   char buf[65536];
-  while (in) {
-    in.read(buf, sizeof(buf));
-    for (std::streamsize i = 0; i < in.gcount(); ++i) {
-      h ^= static_cast<unsigned char>(buf[i]);
-      h *= 1099511628211ull;
+  for (const std::string& path : paths) {
+    std::ifstream in(path, std::ios::binary);
+    while (in) {
+      in.read(buf, sizeof(buf));
+      for (std::streamsize i = 0; i < in.gcount(); ++i) {
+        h ^= static_cast<unsigned char>(buf[i]);
+        h *= 1099511628211ull;
+      }
     }
   }
   std::ostringstream s;

@@ -46,6 +46,8 @@ void writeRunRecord(const std::string& path, const RunRecord& rec);
 
 // FNV-1a 64-bit hash of a file's bytes, as "fnv1a64:<16 hex digits>".
 std::string hashFile(const std::string& path);
+// The same over several files' bytes in turn (a scene and its mesh sequences).
+std::string hashFiles(const std::vector<std::string>& paths);
 
 // Peak resident set size of this process (VmHWM), bytes; 0 if unknown.
 size_t peakResidentBytes();

@@ -253,9 +253,44 @@ SolidSampler makeSolidSampler(std::shared_ptr<MeshCache> cache, double voxel_rat
   };
 }
 
+MeshFrames loadMeshSequence(const MeshDesc& sequence, int frames) {
+  MeshFrames out;
+  out.first = sequence;
+  out.first.sequence_digits = 0;
+  out.first.resolved_path =
+      sequenceFrame(sequence.resolved_path, sequence.sequence_digits, 0);
+  out.first.path = sequenceFrame(sequence.path, sequence.sequence_digits, 0);
+  for (int f = 0; f <= frames; ++f) {
+    MeshDesc one = out.first;
+    one.resolved_path = sequenceFrame(sequence.resolved_path, sequence.sequence_digits, f);
+    const TriangleMesh mesh = loadMesh(one).mesh;  // InputError names the file
+    if (f == 0)
+      for (const auto& t : mesh.triangles)
+        out.triangles.push_back({uint32_t(t[0]), uint32_t(t[1]), uint32_t(t[2])});
+    bool same = mesh.triangles.size() == out.triangles.size() &&
+                (f == 0 || mesh.positions.size() == out.positions[0].size());
+    for (size_t t = 0; same && t < mesh.triangles.size(); ++t)
+      for (int k = 0; k < 3; ++k) same = same && uint32_t(mesh.triangles[t][k]) == out.triangles[t][k];
+    if (!same)
+      throw InputError(one.resolved_path,
+                       "a mesh sequence's frames must all have frame 0's vertices and triangles (" +
+                           std::to_string(f == 0 ? 0 : out.positions[0].size()) + " and " +
+                           std::to_string(out.triangles.size()) + " in " +
+                           out.first.resolved_path + "), but frame " + std::to_string(f) +
+                           " has " + std::to_string(mesh.positions.size()) + " vertices and " +
+                           std::to_string(mesh.triangles.size()) +
+                           " triangles (after merging coincident vertices), or others");
+    std::vector<Vec3f> p;
+    p.reserve(mesh.positions.size());
+    for (const Vec3d& v : mesh.positions) p.push_back(v.cast<float>());
+    out.positions.push_back(std::move(p));
+  }
+  return out;
+}
+
 World buildSceneWorld(const SceneDesc& scene, std::shared_ptr<MeshCache> cache) {
   if (!cache) cache = std::make_shared<MeshCache>();
-  return buildWorld(scene, makeMeshSampler(cache), makeSolidSampler(cache));
+  return buildWorld(scene, makeMeshSampler(cache), makeSolidSampler(cache), loadMeshSequence);
 }
 
 }  // namespace triad

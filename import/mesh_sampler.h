@@ -101,6 +101,10 @@ CollisionSamples sampleCollision(const ShapeDesc& shape, const DomainDesc& domai
 SolidSampler makeSolidSampler(std::shared_ptr<MeshCache> cache,
                               double voxel_ratio = kDefaultVoxelRatio);
 
+// The SequenceLoader buildWorld takes for mesh-sequence colliders: every
+// frame through loadMesh, each checked against frame 0's topology.
+MeshFrames loadMeshSequence(const MeshDesc& sequence, int frames);
+
 // buildWorld with both samplers over one mesh cache (a new one if null).
 World buildSceneWorld(const SceneDesc& scene, std::shared_ptr<MeshCache> cache = nullptr);
 

@@ -238,7 +238,9 @@ MaterialDesc parseMaterial(const std::string& name, const ParamDict& d) {
 
 // Shapes
 
-ShapeDesc parseShape(const ParamDict& s, const std::string& scene_dir) {
+// `frames`: the scene's frame count, for a mesh sequence's files; -1 where
+// sequences are not allowed (reported by the caller).
+ShapeDesc parseShape(const ParamDict& s, const std::string& scene_dir, int frames) {
   const bool box = s.has("box"), sphere = s.has("sphere"), mesh = s.has("mesh");
   s.checkUnknownKeys("in a shape");
   if (box + sphere + mesh != 1) {
@@ -276,6 +278,25 @@ ShapeDesc parseShape(const ParamDict& s, const std::string& scene_dir) {
   out.translate = m.getVec3("translate", out.translate);
   out.rotate_deg = m.getVec3("rotate_deg", out.rotate_deg);
   m.checkUnknownKeys("in a mesh");
+  // A run of '#' in the file name: a mesh sequence, one file per frame.
+  const std::string file = fs::path(out.resolved_path).filename().string();
+  if (const size_t at = file.find('#'); at != std::string::npos) {
+    const size_t end = file.find_first_not_of('#', at);
+    out.sequence_digits = int((end == std::string::npos ? file.size() : end) - at);
+    if (file.find('#', at + size_t(out.sequence_digits)) != std::string::npos)
+      m.fail("path", "expected one run of '#' (the frame number) in a mesh sequence's file "
+                     "name, got " + inQuotes(out.path));
+    if (frames < 0) return out;  // checked by the caller, which knows the frames
+    for (int f = 0; f <= frames; ++f) {
+      const std::string p = sequenceFrame(out.resolved_path, out.sequence_digits, f);
+      std::error_code ec;
+      if (!fs::is_regular_file(p, ec))
+        m.fail("path", "expected a file for every frame 0.." + std::to_string(frames) +
+                           " of the mesh sequence, but frame " + std::to_string(f) + "'s " +
+                           inQuotes(p) + " does not exist (paths are relative to the scene file)");
+    }
+    return out;
+  }
   std::error_code ec;
   const fs::file_status st = fs::status(out.resolved_path, ec);
   if (!fs::exists(st)) {
@@ -415,11 +436,18 @@ EmitDesc parseEmit(const ParamDict& e) {
 }
 
 ObjectDesc parseObject(const ParamDict& d, const std::vector<MaterialDesc>& materials,
-                       const DomainDesc& domain, const std::string& scene_dir) {
+                       const DomainDesc& domain, const std::string& scene_dir, int frames) {
   ObjectDesc o;
   o.name = requireSafeName(d, "name");
   o.kind = d.requireEnum("kind", kKinds);
-  o.shape = parseShape(d.requireDict("shape"), scene_dir);
+  const ParamDict shape = d.requireDict("shape");
+  o.shape = parseShape(shape, scene_dir, o.kind == ObjectKind::Collider ? frames : -1);
+  if (const auto* m = std::get_if<MeshDesc>(&o.shape); m && m->sequence_digits > 0 &&
+                                                        o.kind != ObjectKind::Collider)
+    shape.requireDict("mesh").fail(
+        "path", "expected one mesh file: mesh sequences (a run of '#' in the path, "
+                "the frame number) are for colliders only, and this object is of kind " +
+                    inQuotes(nameOf(kKinds, o.kind)));
   const bool moved = o.kind == ObjectKind::Collider || o.kind == ObjectKind::Sink;
   if (!moved) o.velocity = d.getVec3("velocity", o.velocity);
 
@@ -559,7 +587,8 @@ SceneDesc parseScene(const nlohmann::json& j, const std::string& source_path) {
                              std::to_string(objects.size()));
   }
   for (std::size_t i = 0; i < objects.size(); ++i) {
-    ObjectDesc o = parseObject(objects[i], scene.materials, scene.domain, scene_dir);
+    ObjectDesc o =
+        parseObject(objects[i], scene.materials, scene.domain, scene_dir, scene.frames.count);
     std::string folded = o.name;
     for (char& ch : folded) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
     auto [it, inserted] = seen.emplace(folded, i);

@@ -102,12 +102,24 @@ struct SphereDesc {
 struct MeshDesc {
   std::string path;           // as written in the scene (relative to it)
   std::string resolved_path;  // absolute or relative to the working directory
+  // A mesh sequence: the width of the run of '#' in the path, which stands
+  // for the frame number zero-padded to it (0: one file).
+  int sequence_digits = 0;
   double scale = 1.0;
   Vec3Desc translate{0, 0, 0};
   Vec3Desc rotate_deg{0, 0, 0};  // XYZ Euler, applied after scale, before translate
 };
 
 using ShapeDesc = std::variant<BoxDesc, SphereDesc, MeshDesc>;
+
+// The file of a mesh sequence's frame: the run of '#' in `path` replaced by
+// the frame number, zero-padded to its width.
+inline std::string sequenceFrame(const std::string& path, int digits, int frame) {
+  const size_t at = path.find(std::string(size_t(digits), '#'));
+  std::string number = std::to_string(frame);
+  if (number.size() < size_t(digits)) number.insert(0, size_t(digits) - number.size(), '0');
+  return path.substr(0, at) + number + path.substr(at + size_t(digits));
+}
 
 // A prescribed motion (colliders, sources, sinks): poses at key times, each
 // a translation and an XYZ Euler rotation about the centroid of the shape's

@@ -83,7 +83,9 @@ const CouplingStats& Solver::couplingStats() const {
 double Solver::solidSpeed() const {
   double s = 0.0;
   for (const RigidBody& b : world_.bodies)
-    if (!b.fixed || b.animated) s = std::max(s, b.state.v.norm() + b.omega().norm() * b.radius);
+    if (!b.fixed || b.animated)
+      s = std::max(s, b.state.v.norm() + b.omega().norm() * b.radius +
+                          (b.deform ? b.deform->maxSpeed(world_.time) : 0.0));
   return s;
 }
 
@@ -245,6 +247,23 @@ void Solver::predictSolids(double dt) {
     points_.n.resize(first + n);
     points_.phi.insert(points_.phi.end(), b.phi.begin(), b.phi.end());
     points_.point_mass.resize(first + n, b.sample_mass);
+    if (b.deform) {
+      // Samples ride on the sequence's surface now, then the animation's pose.
+      std::vector<Vec3d> vx, vv;
+      b.deform->vertices(world_.time, vx, vv);
+      const Mat3d A = (b.state.q_principal * b.rest_principal.conjugate()).toRotationMatrix();
+      const Vec3d w = b.omega();
+#pragma omp parallel for schedule(static) if (n > 8192)
+      for (int64_t q = 0; q < int64_t(n); ++q) {
+        Vec3d p, v, nq;
+        b.deform->sample(size_t(q), vx, vv, p, v, nq);
+        const Vec3d r = A * (p - b.pivot);
+        points_.x[first + q] = (b.state.x + r).cast<float>();
+        points_.v[first + q] = (A * v + b.state.v + w.cross(r)).cast<float>();
+        points_.n[first + q] = (A * nq).cast<float>();
+      }
+      continue;
+    }
     const Mat3f R = b.rotation().cast<float>();
     const Vec3f c = b.state.x.cast<float>(), v = b.state.v.cast<float>();
     const Vec3f w = b.omega().cast<float>();
@@ -328,6 +347,7 @@ FemContacts Solver::elasticContacts(const ElasticSolid& e, double dt) {
   contact_surface_.clear();
   for (size_t k = 0; k < world_.bodies.size(); ++k) {
     const RigidBody& b = world_.bodies[k];
+    if (b.deform) continue;  // its sample lattice is frame 0's
     const Mat3d R = b.rotation();
     const double mu = std::sqrt(double(e.friction) * double(b.friction));
     for (size_t i = 0; i < fem.nodes(); ++i) {
@@ -400,6 +420,7 @@ void Solver::pushOutOfSolids(double dt) {
       for (int64_t i = c * kChunk; i < end; ++i) {
         for (size_t bi = 0; bi < nb; ++bi) {
           const RigidBody& b = world_.bodies[bi];
+          if (b.deform) continue;  // its sample lattice is frame 0's
           const Vec3d x = set.x[i].cast<double>();
           double phi;
           Vec3d n;
@@ -533,6 +554,7 @@ void Solver::constrainElastic(ElasticSolid& e, size_t first, double dt) {
   // body takes the momentum. (Implicit solids met them in their solve.)
   for (size_t k = 0; k < world_.bodies.size() && !e.implicit; ++k) {
     RigidBody& b = world_.bodies[k];
+    if (b.deform) continue;  // its sample lattice is frame 0's
     const Mat3d R = b.rotation();
     for (size_t i = 0; i < fem.nodes(); ++i) {
       const Vec3d x = fem.x[i] + dt * fem.v[i];
@@ -563,6 +585,7 @@ void Solver::moveElastic(ElasticSolid& e, double dt) {
   // moving the node, not by giving it velocity.
   if (!e.implicit) return;
   for (const RigidBody& b : world_.bodies) {
+    if (b.deform) continue;
     const Mat3d R = b.rotation();
     for (size_t i = 0; i < fem.nodes(); ++i) {
       double phi;

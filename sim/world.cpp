@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <limits>
 #include <map>
+#include <optional>
 
 #include "sim/errors.h"
 #include "sim/mpm/sampling.h"
@@ -77,12 +78,31 @@ RigidBody buildRigidBody(const SceneDesc& scene, size_t i, const SolidSampler& s
 // A collider: a body of infinite mass whose reference point is the shape's
 // centroid as written, moved by its animation if it has one (else it is a
 // fixed body, scattered into the grid once).
-RigidBody buildCollider(const SceneDesc& scene, size_t i, const SolidSampler& sampler) {
+RigidBody buildCollider(const SceneDesc& scene, size_t i, const SolidSampler& sampler,
+                        const SequenceLoader& sequences) {
   const ObjectDesc& obj = scene.objects[i];
+  // A mesh sequence is sampled at its frame 0.
+  const auto* mesh = std::get_if<MeshDesc>(&obj.shape);
+  std::optional<MeshFrames> frames;
+  if (mesh && mesh->sequence_digits > 0) {
+    if (!sequences)
+      throw InputError(objectKey(scene, i) + ".shape.mesh.path",
+                       "mesh sequences need a sequence loader (import/)");
+    frames = sequences(*mesh, scene.frames.count);
+  }
   // The samples' mass only weighs the velocity of nodes the collider shares
   // with other solids; any density does.
-  SolidSamples s = sampleSolid(scene, i, sampler, 1000.0);
-  const bool animated = obj.animation.has_value();
+  SceneDesc one;
+  const SceneDesc* source = &scene;
+  if (frames) {
+    one.source_path = scene.source_path;
+    one.domain = scene.domain;
+    one.objects.assign(i + 1, obj);
+    one.objects[i].shape = frames->first;
+    source = &one;
+  }
+  SolidSamples s = sampleSolid(*source, i, sampler, 1000.0);
+  const bool animated = obj.animation.has_value() || frames.has_value();
   if (!animated) closeWallFaces(obj.shape, scene.domain, s.samples);
   const Vec3d pivot = volumeCentroid(s.surface);
   RigidBody b = makeRigidBody(int(i), obj.name, s.samples, std::move(s.surface), true,
@@ -91,9 +111,21 @@ RigidBody buildCollider(const SceneDesc& scene, size_t i, const SolidSampler& sa
   recentre(b, pivot);
   b.pivot = pivot;
   b.rest_principal = b.state.q_principal;
+  if (frames) {
+    // Bind the kept samples (world positions at t = 0) to the surface.
+    const Mat3d P = b.principal.toRotationMatrix();
+    std::vector<Vec3f> x, n;
+    for (size_t q = 0; q < b.r.size(); ++q) {
+      x.push_back((pivot + P * b.r[q].cast<double>()).cast<float>());
+      n.push_back((P * b.n[q].cast<double>()).cast<float>());
+    }
+    const double reach = (kCouplingDepth + 1.0) * scene.domain.dx + b.spacing;
+    b.deform = std::make_shared<DeformingSurface>(std::move(frames->positions), frames->triangles,
+                                                  scene.frames.fps, x, n, reach);
+  }
   if (animated) {
     b.animated = true;
-    b.animation = Animation(*obj.animation);
+    if (obj.animation) b.animation = Animation(*obj.animation);
     b.poseAt(0.0);
   }
   return b;
@@ -168,7 +200,7 @@ size_t World::particleBytes() const {
 }
 
 World buildWorld(const SceneDesc& scene, const MeshSampler& mesh_sampler,
-                 const SolidSampler& solid_sampler) {
+                 const SolidSampler& solid_sampler, const SequenceLoader& sequence_loader) {
   World world;
   world.scene = scene;
   world.object_particles.assign(scene.objects.size(), 0);
@@ -196,7 +228,7 @@ World buildWorld(const SceneDesc& scene, const MeshSampler& mesh_sampler,
     if (obj.kind == ObjectKind::Rigid || obj.kind == ObjectKind::Collider) {
       world.bodies.push_back(obj.kind == ObjectKind::Rigid
                                  ? buildRigidBody(scene, i, solid_sampler)
-                                 : buildCollider(scene, i, solid_sampler));
+                                 : buildCollider(scene, i, solid_sampler, sequence_loader));
       world.object_particles[i] = world.bodies.back().r.size();
       continue;
     }

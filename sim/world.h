@@ -10,6 +10,7 @@
 #include "sim/solids/rigid_body.h"
 #include "sim/mpm/sampling.h"
 #include "sim/scene_desc.h"
+#include "sim/shot/deforming.h"
 #include "sim/shot/emitters.h"
 
 namespace triad {
@@ -35,7 +36,9 @@ struct World {
 // Mesh shapes are sampled through `mesh_sampler` (import/ provides one).
 // Rigid objects get their collision particles and surface from
 // `solid_sampler` (import/ provides one for every shape).
+// Mesh-sequence colliders are read through `sequence_loader`.
 World buildWorld(const SceneDesc& scene, const MeshSampler& mesh_sampler = {},
-                 const SolidSampler& solid_sampler = {});
+                 const SolidSampler& solid_sampler = {},
+                 const SequenceLoader& sequence_loader = {});
 
 }  // namespace triad

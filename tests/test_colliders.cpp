@@ -7,9 +7,13 @@
 
 #include <cmath>
 #include <cstdio>
+#include <fstream>
+#include <functional>
+#include <map>
 
 #include "cli_fixture.h"
 #include "scene_fixture.h"
+#include "sim/solids/collision_particles.h"
 #include "sim/solver.h"
 
 namespace triad {
@@ -215,6 +219,152 @@ TEST(Collider, CacheFollowsTheAnimationAndResumesByteForByte) {
           << o << " frame " << f;
     }
   }
+}
+
+// Writes an icosphere of radius r(frame) at `centre` as dir/NAME.FFFF.obj
+// for frames 0..count: one topology, vertices moving.
+void writeSphereSequence(const std::filesystem::path& dir, const std::string& name, int count,
+                         const std::array<double, 3>& centre,
+                         const std::function<double(int)>& radius) {
+  const TriSurface unit = primitiveSurface(SphereDesc{{0, 0, 0}, 1.0});
+  for (int f = 0; f <= count; ++f) {
+    char file[64];
+    std::snprintf(file, sizeof file, "%s.%04d.obj", name.c_str(), f);
+    std::ofstream out(dir / file);
+    const double r = radius(f);
+    for (const Vec3f& v : unit.vertices)
+      out << "v " << centre[0] + r * v.x() << " " << centre[1] + r * v.y() << " "
+          << centre[2] + r * v.z() << "\n";
+    for (const auto& t : unit.triangles)
+      out << "f " << t[0] + 1 << " " << t[1] + 1 << " " << t[2] + 1 << "\n";
+  }
+}
+
+// The water's surface height: the mean over the columns of cells near the
+// tank's corners of the highest particle in each.
+double cornerLevel(const World& w, double dx, double lo, double hi) {
+  std::map<std::pair<int, int>, float> top;
+  for (const ParticleSet& s : w.sets)
+    for (const Vec3f& x : s.x) {
+      const bool corner = (x.x() < lo || x.x() > hi) && (x.z() < lo || x.z() > hi);
+      if (!corner) continue;
+      auto& t = top[{int(x.x() / dx), int(x.z() / dx)}];
+      t = std::max(t, x.y());
+    }
+  double sum = 0;
+  for (const auto& [c, y] : top) sum += y;
+  return top.empty() ? 0.0 : sum / double(top.size());
+}
+
+// A collider sphere growing inside a closed tank of water (a mesh
+// sequence, radius 0.06 -> 0.12 m between 0.3 and 0.8 s) raises the water
+// level by the volume it gains over the tank's area (39.6 mm).
+TEST(DeformingCollider, GrowingSphereRaisesTheWaterByTheVolumeItGains) {
+  const std::filesystem::path dir = test::tempDir("growing_sphere");
+  const int frames = 20;
+  const double fps = 20, r0 = 0.06, r1 = 0.12;
+  writeSphereSequence(dir, "ball", frames, {0.2, 0.14, 0.2}, [&](int f) {
+    const double s = std::clamp((f - 6) / 10.0, 0.0, 1.0);
+    return r0 + s * (r1 - r0);
+  });
+  json j = test::baseScene("growing_sphere", {0.4, 0.5, 0.4}, 0.02);
+  // Half a cell of contact reach. At the default (1.5 cells, every node the
+  // samples reach) a growing surface pushes the water at nodes up to 1.5
+  // cells ahead of it, and the gap that opens (0.65 cells here) cannot close
+  // again, since water approaching a node within the reach is stopped: the
+  // level rises 63.5 mm, 60% too much (bench/RESULTS.md, "Colliders").
+  j["solver"] = {{"contact_reach", 0.5}};
+  j["frames"] = {{"count", frames}, {"fps", fps}};
+  j["materials"]["water"] = {{"model", "water"}, {"density", 1000}, {"bulk_modulus", 1e5}};
+  j["objects"].push_back({{"name", "water"}, {"kind", "mpm"}, {"material", "water"},
+                          {"shape", box({0, 0, 0}, {0.4, 0.3, 0.4})}});
+  j["objects"].push_back(
+      {{"name", "ball"}, {"kind", "collider"}, {"shape", {{"mesh", {{"path", "ball.####.obj"}}}}}});
+  World w = test::loadWorld(dir, j);
+  ASSERT_EQ(w.bodies.size(), 1u);
+  ASSERT_TRUE(w.bodies[0].deform);
+  // Bound where they were sampled.
+  std::vector<Vec3f> x;
+  const Mat3d P = w.bodies[0].principal.toRotationMatrix();
+  for (const Vec3f& r : w.bodies[0].r)
+    x.push_back((w.bodies[0].pivot + P * r.cast<double>()).cast<float>());
+  EXPECT_LT(w.bodies[0].deform->bindingError(x), 1e-6);
+  Solver solver(w);
+  solver.advanceTo(0.3);
+  const double before = cornerLevel(w, 0.02, 0.06, 0.34);
+  // The level after the growth (0.8 s) and the sloshing it starts: a mean
+  // over 1.0-1.4 s.
+  solver.advanceTo(1.0);
+  double after = 0;
+  for (int k = 1; k <= 4; ++k) {
+    solver.advanceTo(1.0 + 0.1 * k);
+    after += cornerLevel(w, 0.02, 0.06, 0.34) / 4;
+  }
+  // The water's own volume is conserved, so the rise is the sphere's.
+  const double gained = 4.0 / 3.0 * M_PI * (std::pow(r1, 3) - std::pow(r0, 3));
+  const double expect = gained / (0.4 * 0.4);
+  size_t inside = 0;
+  for (const ParticleSet& s : w.sets)
+    for (const Vec3f& p : s.x)
+      inside += (p.cast<double>() - Vec3d(0.2, 0.14, 0.2)).norm() < r1 - 0.02;
+  std::printf("level %.4f -> %.4f m: rise %.4f m (expected %.4f), %zu particles inside\n",
+              before, after, after - before, expect, inside);
+  EXPECT_NEAR(after - before, expect, 0.1 * expect);
+  EXPECT_EQ(inside, 0u);
+  // The collider's mesh in the cache follows the sequence.
+  TriSurface s = worldSurface(w.bodies[0]);
+  double r = 0;
+  for (const Vec3f& v : s.vertices) r += (v.cast<double>() - Vec3d(0.2, 0.14, 0.2)).norm();
+  EXPECT_NEAR(r / double(s.vertices.size()), r1, 1e-4);
+}
+
+// Every frame's file is checked before simulating: a missing one, or one
+// of other topology, is exit status 2 naming it.
+TEST(DeformingCollider, MissingOrMismatchedFramesAreInputErrors) {
+  const std::filesystem::path dir = test::tempDir("sequence_errors");
+  writeSphereSequence(dir, "ball", 4, {0.2, 0.2, 0.2}, [](int f) { return 0.05 + 0.01 * f; });
+  json j = test::baseScene("sequence_errors", {0.4, 0.4, 0.4}, 0.04);
+  j["frames"] = {{"count", 4}, {"fps", 24}};
+  j["objects"].push_back(
+      {{"name", "ball"}, {"kind", "collider"}, {"shape", {{"mesh", {{"path", "ball.####.obj"}}}}}});
+  j["output"] = {{"vdb", false}, {"png", false}, {"ply", false}};
+  const auto run = [&](const json& scene) {
+    return test::runTriad(dir, "run " + test::writeScene(dir, scene) + " --out " +
+                                   (dir / "out").string() + " --quiet");
+  };
+  ASSERT_EQ(run(j).status, 0);
+  // The scene's hash covers the sequence: with a frame changed, its
+  // checkpoints are refused.
+  writeSphereSequence(dir, "ball", 4, {0.2, 0.2, 0.2}, [](int f) { return 0.05 + 0.012 * f; });
+  test::CliResult r = test::runTriad(dir, "run " + (dir / "scene.json").string() + " --out " +
+                                              (dir / "out").string() + " --quiet --resume");
+  EXPECT_EQ(r.status, 2) << r.err;
+  EXPECT_NE(r.err.find("refusing to resume"), std::string::npos) << r.err;
+  // One frame more than the files.
+  json longer = j;
+  longer["frames"]["count"] = 5;
+  r = run(longer);
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("objects[0].shape.mesh.path"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("ball.0005.obj"), std::string::npos) << r.err;
+  // Frame 3 of other topology (a triangle less).
+  {
+    std::ifstream in(dir / "ball.0003.obj");
+    std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    text.erase(text.rfind("f "));
+    std::ofstream(dir / "ball.0003.obj") << text;
+  }
+  r = run(j);
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("ball.0003.obj"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("frame 0's vertices and triangles"), std::string::npos) << r.err;
+  // Sequences are for colliders only.
+  json rigid = j;
+  rigid["objects"][0]["kind"] = "rigid";
+  rigid["objects"][0]["density"] = 500;
+  r = run(rigid);
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("for colliders only"), std::string::npos) << r.err;
 }
 
 }  // namespace

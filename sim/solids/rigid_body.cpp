@@ -30,6 +30,14 @@ void RigidBody::poseAt(double t) {
   state.q_principal = (p.rotation * rest_principal).normalized();
   state.v = p.velocity;
   spin = p.omega;
+  if (deform) {
+    // The surface in the body's frame: rest_principal^T (x - pivot).
+    std::vector<Vec3d> x, v;
+    deform->vertices(t, x, v);
+    const Mat3d Pt = rest_principal.toRotationMatrix().transpose();
+    surface.vertices.resize(x.size());
+    for (size_t i = 0; i < x.size(); ++i) surface.vertices[i] = (Pt * (x[i] - pivot)).cast<float>();
+  }
 }
 
 double RigidBody::kineticEnergy() const {

@@ -10,11 +10,13 @@
 // frame, the identity at t = 0: what caches and renderers want.
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "sim/math.h"
 #include "sim/shot/animation.h"
+#include "sim/shot/deforming.h"
 #include "sim/solids/collision_particles.h"
 
 namespace triad {
@@ -42,6 +44,10 @@ struct RigidBody {
   Vec3d pivot = Vec3d::Zero();          // centroid of the shape as written
   Quatd rest_principal = Quatd::Identity();  // q_principal at t = 0
   Vec3d spin = Vec3d::Zero();
+  // A deforming collider (a mesh sequence): its samples ride on the
+  // sequence's surface (kept samples, in the order of r), and `surface`
+  // follows it. Always animated (its animation may be the identity).
+  std::shared_ptr<const DeformingSurface> deform;
 
   // Mass properties.
   double mass = 0.0;
@@ -90,7 +96,8 @@ struct RigidBody {
   // sample lattice (outside, or deeper than the kept samples).
   bool distanceAt(const Vec3d& p, const Mat3d& R, double& phi_out, Vec3d& n_out) const;
 
-  // An animated body: pose, velocity and spin at time t.
+  // An animated body: pose, velocity and spin at time t; a deforming one's
+  // surface too.
   void poseAt(double t);
 
   // Advance position and orientation over dt with the current velocities:

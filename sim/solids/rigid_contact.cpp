@@ -99,6 +99,8 @@ std::vector<Contact> findContacts(const std::vector<RigidBody>& bodies, const Co
       const RigidBody& a = bodies[i];
       const RigidBody& b = bodies[j];
       if (a.fixed && b.fixed) continue;
+      // A deforming collider's sample lattice is its frame 0's: no contact.
+      if (a.deform || b.deform) continue;
       const double reach = a.radius + b.radius +
                            (a.state.v - b.state.v).norm() * dt +
                            (a.omega().norm() * a.radius + b.omega().norm() * b.radius) * dt;
