@@ -12,32 +12,11 @@
 #include <memory>
 #include <vector>
 
+#include "bench/uv_sphere.h"
 #include "import/mesh_loader.h"
 #include "import/mesh_sampler.h"
 
 using namespace triad;
-
-static TriangleMesh uvSphere(const Vec3d& c, double r, int nu, int nv) {
-  TriangleMesh m;
-  m.positions.push_back(c + Vec3d(0, r, 0));
-  for (int j = 1; j < nv; ++j)
-    for (int i = 0; i < nu; ++i) {
-      const double th = M_PI * j / nv, ph = 2 * M_PI * i / nu;
-      m.positions.push_back(c + r * Vec3d(std::sin(th) * std::cos(ph), std::cos(th), std::sin(th) * std::sin(ph)));
-    }
-  m.positions.push_back(c - Vec3d(0, r, 0));
-  const int south = int(m.positions.size()) - 1;
-  auto ring = [&](int j, int i) { return 1 + (j - 1) * nu + (i % nu); };
-  for (int i = 0; i < nu; ++i) {
-    m.triangles.push_back({0, ring(1, i + 1), ring(1, i)});
-    m.triangles.push_back({south, ring(nv - 1, i), ring(nv - 1, i + 1)});
-    for (int j = 1; j < nv - 1; ++j) {
-      m.triangles.push_back({ring(j, i), ring(j, i + 1), ring(j + 1, i + 1)});
-      m.triangles.push_back({ring(j, i), ring(j + 1, i + 1), ring(j + 1, i)});
-    }
-  }
-  return m;
-}
 
 int main(int argc, char** argv) {
   const int runs = argc > 1 ? std::max(1, std::atoi(argv[1])) : 3;

@@ -249,19 +249,9 @@ void Solver::predictSolids(double dt) {
     points_.point_mass.resize(first + n, b.sample_mass);
     if (b.deform) {
       // Samples ride on the sequence's surface now, then the animation's pose.
-      std::vector<Vec3d> vx, vv;
-      b.deform->vertices(world_.time, vx, vv);
       const Mat3d A = (b.state.q_principal * b.rest_principal.conjugate()).toRotationMatrix();
-      const Vec3d w = b.omega();
-#pragma omp parallel for schedule(static) if (n > 8192)
-      for (int64_t q = 0; q < int64_t(n); ++q) {
-        Vec3d p, v, nq;
-        b.deform->sample(size_t(q), vx, vv, p, v, nq);
-        const Vec3d r = A * (p - b.pivot);
-        points_.x[first + q] = (b.state.x + r).cast<float>();
-        points_.v[first + q] = (A * v + b.state.v + w.cross(r)).cast<float>();
-        points_.n[first + q] = (A * nq).cast<float>();
-      }
+      b.deform->placeAll(world_.time, A, b.pivot, b.state.x, b.state.v, b.omega(), points_.x,
+                         points_.v, points_.n, first);
       continue;
     }
     const Mat3f R = b.rotation().cast<float>();

@@ -510,6 +510,8 @@ void GridCoupling::gather(SolidPoints& pts, const TransferParams& p) const {
   for (int64_t k = 0; k < int64_t(blocks_.size()); ++k) {
     const PointBlock& blk = blocks_[k];
     for (uint32_t o = blk.first; o < blk.last; o += 3) {
+      // Driven colliders take nothing back from the grid.
+      if (pts.kind[order_[o + 2]] != SolidKind::Moving) continue;
       for (uint32_t q = order_[o]; q < order_[o + 1]; ++q) {
         Vec3f dv = Vec3f::Zero();
         forStencil(blk, pts.x[q], p, [&](float w, size_t i, const Vec3f&) { dv += w * delta_[i]; });

@@ -177,6 +177,41 @@ void DeformingSurface::sample(size_t q, const std::vector<Vec3d>& x, const std::
   vel = (place(eps, nullptr) - pos) / eps;
 }
 
+void DeformingSurface::placeAll(double t, const Mat3d& A, const Vec3d& pivot, const Vec3d& centre,
+                                const Vec3d& lin, const Vec3d& omega, std::vector<Vec3f>& pos,
+                                std::vector<Vec3f>& vel, std::vector<Vec3f>& nrm,
+                                size_t first) const {
+  std::vector<Vec3d> x, v;
+  vertices(t, x, v);
+  // Each triangle's frame now and a moment later (vertices move linearly
+  // within a frame): the samples' velocities are that difference.
+  const double eps = 1e-4 / fps_;
+  const int64_t nt = int64_t(triangles_.size());
+  std::vector<Mat3d> f0(static_cast<size_t>(nt)), f1(static_cast<size_t>(nt));
+#pragma omp parallel for schedule(static) if (nt > 4096)
+  for (int64_t k = 0; k < nt; ++k) {
+    const auto& tr = triangles_[size_t(k)];
+    f0[size_t(k)] = triangleFrame(x[tr[0]], x[tr[1]], x[tr[2]]);
+    f1[size_t(k)] = triangleFrame(x[tr[0]] + eps * v[tr[0]], x[tr[1]] + eps * v[tr[1]],
+                                  x[tr[2]] + eps * v[tr[2]]);
+  }
+  const int64_t ns = int64_t(tri_.size());
+#pragma omp parallel for schedule(static) if (ns > 8192)
+  for (int64_t q = 0; q < ns; ++q) {
+    const uint32_t k = tri_[size_t(q)];
+    const auto& tr = triangles_[k];
+    const Vec3d w = bary_[size_t(q)].cast<double>(), o = offset_[size_t(q)].cast<double>();
+    const Vec3d c = w.x() * x[tr[0]] + w.y() * x[tr[1]] + w.z() * x[tr[2]];
+    const Vec3d cv = w.x() * v[tr[0]] + w.y() * v[tr[1]] + w.z() * v[tr[2]];
+    const Vec3d p = c + f0[k] * o;
+    const Vec3d pv = cv + (f1[k] - f0[k]) * o / eps;
+    const Vec3d r = A * (p - pivot);
+    pos[first + size_t(q)] = (centre + r).cast<float>();
+    vel[first + size_t(q)] = (A * pv + lin + omega.cross(r)).cast<float>();
+    nrm[first + size_t(q)] = (A * (f0[k] * normal_[size_t(q)].cast<double>())).cast<float>();
+  }
+}
+
 double DeformingSurface::maxSpeed(double t) const {
   const int k = int(std::floor(std::max(0.0, t * fps_)));
   return k < int(max_speed_.size()) ? max_speed_[size_t(k)] : 0.0;

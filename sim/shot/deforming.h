@@ -32,6 +32,13 @@ class DeformingSurface {
   // Sample q's position, velocity and normal on the surface of those vertices.
   void sample(size_t q, const std::vector<Vec3d>& x, const std::vector<Vec3d>& v, Vec3d& pos,
               Vec3d& vel, Vec3d& normal) const;
+  // Every sample at time t, then moved by a rigid motion: world position
+  // centre + A (p - pivot), velocity A v + lin + omega x (A (p - pivot)),
+  // normal A n; written to pos, vel, nrm from index `first` on. Each
+  // triangle's frame is formed once for all its samples.
+  void placeAll(double t, const Mat3d& A, const Vec3d& pivot, const Vec3d& centre,
+                const Vec3d& lin, const Vec3d& omega, std::vector<Vec3f>& pos,
+                std::vector<Vec3f>& vel, std::vector<Vec3f>& nrm, size_t first) const;
 
   // The fastest vertex speed at time t (for the step's CFL limit).
   double maxSpeed(double t) const;
