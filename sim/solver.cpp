@@ -540,18 +540,25 @@ void Solver::constrainElastic(ElasticSolid& e, size_t first, double dt) {
         }
       }
   }
-  // Rigid bodies: a node inside one is pushed back to its surface, and the
-  // body takes the momentum. (Implicit solids met them in their solve.)
+  // Rigid bodies: a node inside one is pushed back to its surface, and its
+  // sliding along it is reduced by Coulomb friction (the pair's geometric
+  // mean) within what the push bounds; the body takes the momentum.
+  // (Implicit solids met them in their solve.)
   for (size_t k = 0; k < world_.bodies.size() && !e.implicit; ++k) {
     RigidBody& b = world_.bodies[k];
     if (b.deform) continue;  // its sample lattice is frame 0's
     const Mat3d R = b.rotation();
+    const double mu_pair = std::sqrt(double(e.friction) * double(b.friction));
     for (size_t i = 0; i < fem.nodes(); ++i) {
       const Vec3d x = fem.x[i] + dt * fem.v[i];
       double phi;
       Vec3d n;
       if (!b.distanceAt(x, R, phi, n) || phi >= 0.0) continue;
-      const Vec3d dv = (-phi / dt) * n;
+      Vec3d dv = (-phi / dt) * n;
+      const Vec3d u = fem.v[i] + dv - b.velocityAt(x);
+      const Vec3d ut = u - u.dot(n) * n;
+      const double slide = ut.norm();
+      if (slide > 0.0) dv -= std::min(mu_pair * (-phi / dt), slide) / slide * ut;
       fem.v[i] += dv;
       b.applyImpulse(-fem.mass[i] * dv, x);
       addLoad(k, -fem.mass[i] * dv, x);

@@ -127,6 +127,43 @@ TEST(Collider, MovingFloorCarriesARigidBox) {
   EXPECT_NEAR(b.state.x.y(), 0.1 + 0.049, 0.01);  // resting on the floor
 }
 
+// A collider floor at 0.3 m/s carries an (explicit) elastic jelly cube
+// resting on it (friction 0.5 each) up to its speed: the nodes stopped at
+// its surface take Coulomb friction (frictionless, they would stay behind).
+TEST(Collider, MovingFloorCarriesAnElasticSolid) {
+  json j = test::baseScene("floor_carries_jelly", {1.2, 0.4, 0.4}, 0.02);
+  j["materials"]["jelly"] = {{"model", "fixed_corotated"}, {"density", 1000},
+                             {"youngs_modulus", 5e4}, {"poisson_ratio", 0.3}};
+  j["objects"].push_back({{"name", "cube"}, {"kind", "elastic"}, {"material", "jelly"},
+                          {"friction", 0.5}, {"shape", box({0.14, 0.1, 0.14}, {0.24, 0.2, 0.24})}});
+  j["objects"].push_back({{"name", "floor"}, {"kind", "collider"}, {"friction", 0.5},
+                          {"shape", box({0.04, 0.04, 0.04}, {0.5, 0.1, 0.36})},
+                          {"animation", linearMove(2.0, {0.6, 0, 0})}});
+  World w = test::loadWorld(test::tempDir("floor_carries_jelly"), j);
+  Solver solver(w);
+  // The soft cube sways as it is carried (its shear mode rings): its mean
+  // speed over 0.4-0.8 s is its centre's travel over that time.
+  auto centre = [&](double& ymin) {
+    const FemBody& fem = w.elastics[0].fem;
+    double mass = 0, x = 0;
+    ymin = 1;
+    for (size_t i = 0; i < fem.nodes(); ++i) {
+      mass += fem.mass[i];
+      x += fem.mass[i] * fem.x[i].x();
+      ymin = std::min(ymin, fem.x[i].y());
+    }
+    return x / mass;
+  };
+  double ymin;
+  solver.advanceTo(0.4);
+  const double x0 = centre(ymin);
+  solver.advanceTo(0.8);
+  const double speed = (centre(ymin) - x0) / 0.4;
+  std::printf("jelly at %.4f m/s (floor 0.3), lowest node %.4f m\n", speed, ymin);
+  EXPECT_NEAR(speed, 0.3, 0.015);
+  EXPECT_GT(ymin, 0.1 - 0.005);  // on the floor, not in it
+}
+
 // From the command line: the collider's surface in bodies/ each frame where
 // its animation puts it, a forces.csv row for it each frame, its pose in
 // rigid_states.csv, the source's and sink's counts in run.json; and a run
