@@ -1,6 +1,8 @@
 #include "export/ply_writer.h"
 
+#include <algorithm>
 #include <cstring>
+#include <utility>
 #include <vector>
 
 #include "export/atomic_file.h"
@@ -33,20 +35,33 @@ void writeParticlesPly(const std::string& path, const World& world) {
         << "property float vx\nproperty float vy\nproperty float vz\n"
         << "property int object\nproperty float J\nproperty int id\n"
         << "end_header\n";
+    // In increasing id (the contract), whatever order the solver keeps the
+    // particles in: tools that match points by index across frames see the
+    // same point. Ids are unique, so the order is total.
+    std::vector<std::pair<uint32_t, uint32_t>> order;  // (id, entry of `where`)
+    std::vector<std::pair<uint32_t, size_t>> where;     // (set, index) of each particle
+    order.reserve(n);
+    where.reserve(n);
+    for (size_t s = 0; s < world.sets.size(); ++s)
+      for (size_t i = 0; i < world.sets[s].size(); ++i) {
+        order.emplace_back(world.sets[s].id[i], uint32_t(where.size()));
+        where.emplace_back(uint32_t(s), i);
+      }
+    std::sort(order.begin(), order.end());
     // Stream in chunks to bound the temporary memory.
     std::vector<PlyVertex> chunk;
     chunk.reserve(65536);
-    for (const ParticleSet& set : world.sets) {
-      for (size_t i = 0; i < set.size(); ++i) {
-        const Vec3f& x = set.x[i];
-        const Vec3f& v = set.v[i];
-        chunk.push_back({x.x(), x.y(), x.z(), v.x(), v.y(), v.z(), int32_t(set.object[i]),
-                         set.volumeRatio(i), int32_t(set.id[i])});
-        if (chunk.size() == chunk.capacity()) {
-          out.write(reinterpret_cast<const char*>(chunk.data()),
-                    std::streamsize(chunk.size() * sizeof(PlyVertex)));
-          chunk.clear();
-        }
+    for (const auto& [pid, k] : order) {
+      const ParticleSet& set = world.sets[where[k].first];
+      const size_t i = where[k].second;
+      const Vec3f& x = set.x[i];
+      const Vec3f& v = set.v[i];
+      chunk.push_back({x.x(), x.y(), x.z(), v.x(), v.y(), v.z(), int32_t(set.object[i]),
+                       set.volumeRatio(i), int32_t(pid)});
+      if (chunk.size() == chunk.capacity()) {
+        out.write(reinterpret_cast<const char*>(chunk.data()),
+                  std::streamsize(chunk.size() * sizeof(PlyVertex)));
+        chunk.clear();
       }
     }
     out.write(reinterpret_cast<const char*>(chunk.data()),

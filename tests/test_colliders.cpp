@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <functional>
 #include <map>
@@ -225,6 +226,23 @@ TEST(Collider, CacheFollowsTheAnimationAndResumesByteForByte) {
   EXPECT_EQ(rows, 4);
   EXPECT_LT(fx_sum, 0.0);
 
+  // Particles in increasing id in every frame, though the hopper's new ones
+  // and the drain's removals interleave them (the id is the last of nine
+  // 4-byte properties).
+  for (int f = 0; f <= 4; ++f) {
+    char name[32];
+    std::snprintf(name, sizeof name, "particles.%04d.ply", f);
+    const std::string bytes = test::slurp(ref / "particles" / name);
+    const size_t body = bytes.find("end_header\n") + 11;
+    ASSERT_EQ((bytes.size() - body) % 36, 0u);
+    int32_t previous = -1;
+    for (size_t at = body; at < bytes.size(); at += 36) {
+      int32_t id;
+      std::memcpy(&id, bytes.data() + at + 32, 4);
+      ASSERT_GT(id, previous) << name;
+      previous = id;
+    }
+  }
   // run.json counts what the hopper made and the drain took.
   const json rec = json::parse(test::slurp(ref / "run.json"));
   const uint64_t emitted = rec["particles"]["emitted"]["hopper"].get<uint64_t>();
