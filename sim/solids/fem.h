@@ -90,6 +90,11 @@ struct FemBody {
   // moved. Returns the Newton iterations taken.
   int implicitVelocities(double dt, const Vec3d& gravity, std::vector<Vec3d>& v_new,
                          FemContacts* contacts = nullptr) const;
+  // Stiffness of element t at node positions y: d^2 E_t / dx^2 (12 x 12,
+  // the element's nodes in order), the implicit solve's Hessian block;
+  // `psd`: with dP/dF made positive semi-definite, as the solve uses it.
+  Eigen::Matrix<double, 12, 12> elementStiffness(const std::vector<Vec3d>& y, size_t t,
+                                                 bool psd = true) const;
   // Incremental potential at positions y (for the line search and tests).
   double incrementalPotential(const std::vector<Vec3d>& y, const std::vector<Vec3d>& target,
                               double dt, const FemContacts* contacts = nullptr) const;

@@ -123,6 +123,19 @@ Vec3d wallPenetration(const FemContacts& c, const Vec3d& y) {
 
 }  // namespace
 
+Eigen::Matrix<double, 12, 12> FemBody::elementStiffness(const std::vector<Vec3d>& y, size_t t,
+                                                        bool psd) const {
+  return std::visit(
+      [&](const auto& mat) {
+        const Mat3d F = edges(y, mesh.tets[t]) * dm_inv[t];
+        const Eigen::Matrix<double, 9, 12> G = deformationJacobian(dm_inv[t]);
+        const Mat9<double> dP = mat.firstPiolaDerivative(F);
+        return Eigen::Matrix<double, 12, 12>(volume[t] * G.transpose() *
+                                             (psd ? projectPsd(dP) : dP) * G);
+      },
+      model);
+}
+
 FemBody::SolveStats FemBody::lastSolve() const {
   return implicit_cache_ ? implicit_cache_->stats : SolveStats{};
 }
@@ -191,17 +204,11 @@ int FemBody::implicitVelocities(double dt, const Vec3d& gravity, std::vector<Vec
     // (a chord method: the line search keeps every iteration descending,
     // and the elements' eigenproblems are most of an iteration's cost).
     if (it == 0) {
-      std::visit(
-          [&](const auto& mat) {
 #pragma omp parallel for schedule(static) if (nt > 256)
-            for (int64_t t = 0; t < int64_t(nt); ++t) {
-              const Mat3d F = edges(y, mesh.tets[t]) * dm_inv[t];
-              const Eigen::Matrix<double, 9, 12> G = deformationJacobian(dm_inv[t]);
-              Eigen::Map<Eigen::Matrix<double, 12, 12>> K(cache.ke.data() + 144 * t);
-              K.noalias() = volume[t] * G.transpose() * projectPsd(mat.firstPiolaDerivative(F)) * G;
-            }
-          },
-          model);
+      for (int64_t t = 0; t < int64_t(nt); ++t) {
+        Eigen::Map<Eigen::Matrix<double, 12, 12>> K(cache.ke.data() + 144 * t);
+        K = elementStiffness(y, size_t(t));
+      }
       cache.elements.assign(size_t(cache.H.nonZeros()), 0.0);
       for (size_t t = 0; t < nt; ++t) {
         const auto& nd = mesh.tets[t];
