@@ -10,6 +10,7 @@
 #include <memory>
 
 #include "app/frame_output.h"
+#include "app/interrupt.h"
 #include "export/atomic_file.h"
 #include "export/run_record.h"
 #include "import/mesh_sampler.h"
@@ -214,17 +215,54 @@ int runScene(const RunOptions& options) {
   const int frames = scene.frames.count;
   Progress progress(options.progress, frames, frames / scene.frames.fps);
   int frame = start_frame;
+  // SIGINT / SIGTERM: stop at the next step boundary (below).
+  struct Interrupted {
+    int sig;
+  };
+  InterruptGuard interrupt_guard;
+  auto checkInterrupt = [] {
+    if (const int sig = pendingInterrupt()) throw Interrupted{sig};
+  };
   try {
     if (resumed_from < 0) writeFrame(0);
     for (frame = start_frame + 1; frame <= frames; ++frame) {
+      checkInterrupt();
       const double t_frame = frame / scene.frames.fps;
       solver.resetLoads();
       solver.advanceTo(t_frame, [&](double dt) {
         progress.step(frame, world.steps, world.time, dt);
+        checkInterrupt();
       });
       writeFrame(frame);
       progress.frameDone(frame, world.steps, world.time);
     }
+  } catch (const Interrupted& stop) {
+    // Every complete frame and its checkpoint stay; the frame in progress
+    // is dropped (no file of it was written).
+    progress.finish();
+    const std::string why = "interrupted by " + signalName(stop.sig) + " in frame " +
+                            std::to_string(frame) + " at t = " + std::to_string(world.time) + " s";
+    std::fprintf(stderr, "triad: %s: frames 0..%d are complete in %s\n", why.c_str(),
+                 rec.frames_written - 1, out_dir.c_str());
+    if (scene.output.checkpoints) {
+      auto quote = [](const std::string& a) {
+        return a.find_first_of(" \t'\"$\\") == std::string::npos ? a : "'" + a + "'";
+      };
+      std::string cmd = "triad run " + quote(options.scene_path) + " --out " + quote(out_dir);
+      if (!options.quality.empty()) cmd += " --quality " + options.quality;
+      std::fprintf(stderr, "triad: to continue after frame %d: %s --resume\n",
+                   rec.frames_written - 1, cmd.c_str());
+    } else {
+      std::fprintf(stderr, "triad: note: output.checkpoints is false: a rerun starts over\n");
+    }
+    rec.interrupted_by = signalName(stop.sig);
+    rec.interrupted_frame = frame;
+    try {
+      record(false, why);
+    } catch (const std::exception& e2) {
+      std::fprintf(stderr, "triad: error: %s\n", e2.what());
+    }
+    return interruptedExitStatus(stop.sig);
   } catch (const std::exception& e) {
     progress.finish();
     const bool sim = dynamic_cast<const SimulationError*>(&e) != nullptr;

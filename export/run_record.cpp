@@ -16,6 +16,8 @@ void writeRunRecord(const std::string& path, const RunRecord& rec) {
   j["scene"] = {{"name", rec.scene_name}, {"path", rec.scene_path}, {"hash", rec.scene_hash}};
   j["finished"] = rec.finished;
   j["error"] = rec.error.empty() ? nlohmann::ordered_json(nullptr) : nlohmann::ordered_json(rec.error);
+  if (!rec.interrupted_by.empty())
+    j["interrupted"] = {{"signal", rec.interrupted_by}, {"frame", rec.interrupted_frame}};
   if (rec.resume)
     j["resumed"] = {{"from_frame", rec.resumed_from_frame >= 0
                                        ? nlohmann::ordered_json(rec.resumed_from_frame)

@@ -39,6 +39,10 @@ struct RunRecord {
   int resumed_from_frame = -1;    // the checkpoint's frame; -1: started over
   bool finished = false;
   std::string error;  // empty when finished
+  // A run stopped by SIGINT or SIGTERM: the signal's name and the frame in
+  // progress (dropped); empty and -1 otherwise.
+  std::string interrupted_by;
+  int interrupted_frame = -1;
   std::string started_utc, ended_utc;
 };
 
