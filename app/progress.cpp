@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 
 namespace triad {
@@ -15,8 +16,9 @@ void formatDuration(double seconds, char* buf, size_t size) {
   std::snprintf(buf, size, "%ld:%02ld:%02ld", s / 3600, (s / 60) % 60, s % 60);
 }
 
-Progress::Progress(ProgressMode mode, int frames, double end_time, std::FILE* out)
-    : out_(out), frames_(frames), end_time_(end_time) {
+Progress::Progress(ProgressMode mode, int frames, double end_time, std::FILE* out,
+                   double heartbeat)
+    : out_(out), frames_(frames), end_time_(end_time), heartbeat_(heartbeat) {
   quiet_ = mode == ProgressMode::Quiet;
   live_ = mode == ProgressMode::Auto && ::isatty(::fileno(out));
   start_ = last_draw_ = std::chrono::steady_clock::now();
@@ -25,8 +27,10 @@ Progress::Progress(ProgressMode mode, int frames, double end_time, std::FILE* ou
 double Progress::etaSeconds(double time) const {
   const double elapsed =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
-  if (time <= 0.0) return -1.0;
-  return elapsed * (end_time_ - time) / time;
+  // From the rate since the first step: a resumed run starts mid-way.
+  const double done = time - std::max(0.0, first_time_);
+  if (done <= 0.0) return -1.0;
+  return elapsed * (end_time_ - time) / done;
 }
 
 void Progress::print(int frame, int64_t steps, double time, double dt, bool final_line) {
@@ -40,16 +44,29 @@ void Progress::print(int frame, int64_t steps, double time, double dt, bool fina
 
 void Progress::step(int frame, int64_t steps, double time, double dt) {
   last_dt_ = dt;
-  if (quiet_ || !live_) return;
-  // Redraw a terminal line at most ten times a second.
+  if (first_time_ < 0.0) {
+    // The clock starts at the first step: setup is not simulation.
+    first_time_ = time - dt;
+    start_ = last_draw_ = std::chrono::steady_clock::now();
+  }
+  if (quiet_) return;
   const auto now = std::chrono::steady_clock::now();
-  if (now - last_draw_ < std::chrono::milliseconds(100)) return;
+  if (live_) {
+    // Redraw a terminal line at most ten times a second.
+    if (now - last_draw_ < std::chrono::milliseconds(100)) return;
+    last_draw_ = now;
+    print(frame, steps, time, dt, false);
+    return;
+  }
+  // A log: a line inside a long frame once the heartbeat has passed.
+  if (std::chrono::duration<double>(now - last_draw_).count() < heartbeat_) return;
   last_draw_ = now;
-  print(frame, steps, time, dt, false);
+  print(frame, steps, time, dt, true);
 }
 
 void Progress::frameDone(int frame, int64_t steps, double time) {
   if (quiet_ || live_) return;
+  last_draw_ = std::chrono::steady_clock::now();
   print(frame, steps, time, last_dt_, true);
 }
 
