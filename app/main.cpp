@@ -1,11 +1,23 @@
 // The `triad` command line: a thin layer over the pipeline in app/.
+#include <unistd.h>
+
 #include <CLI/CLI.hpp>
+#include <cstdlib>
 #include <string>
 
 #include "app/render_cache.h"
 #include "app/run_scene.h"
 
 int main(int argc, char** argv) {
+  // OpenMP threads that spin at barriers starve each other on a machine
+  // whose cores are busy (a run six times slower beside one compile):
+  // unless the user chose a wait policy, run with threads that sleep
+  // (5% slower on an idle machine, bench/RESULTS.md). The OpenMP runtime
+  // reads it when it loads, so the program starts itself again with it.
+  if (!std::getenv("OMP_WAIT_POLICY")) {
+    setenv("OMP_WAIT_POLICY", "passive", 1);
+    execv("/proc/self/exe", argv);  // returns only if it failed: go on as we are
+  }
   CLI::App app{"Triad: MPM simulation of sand, snow, fluids and soft materials into VFX caches"};
   app.set_version_flag("--version", "triad 0.1.0");
   app.require_subcommand(1);

@@ -53,6 +53,8 @@ int runScene(const RunOptions& options) {
   RunRecord rec;
   rec.started_utc = utcNow();
   rec.threads = omp_get_max_threads();
+  const char* policy = std::getenv("OMP_WAIT_POLICY");
+  rec.omp_wait_policy = policy ? policy : "";
 
   // Load and build everything before any simulation work: bad input exits 2.
   SceneDesc scene;

@@ -25,6 +25,7 @@ void writeRunRecord(const std::string& path, const RunRecord& rec) {
   j["started_utc"] = rec.started_utc;
   j["ended_utc"] = rec.ended_utc;
   j["threads"] = rec.threads;
+  j["omp_wait_policy"] = rec.omp_wait_policy;
   j["quality"] = {{"preset", rec.quality.empty() ? nlohmann::ordered_json(nullptr)
                                                  : nlohmann::ordered_json(rec.quality)},
                   {"dx", rec.dx},

@@ -123,6 +123,21 @@ TEST(Cli, WritesCacheAndRunRecord) {
   EXPECT_GT(rec["wall_seconds"]["phases"]["p2g"].get<double>(), 0.0);
 }
 
+// Without OMP_WAIT_POLICY the program runs with sleeping OpenMP threads
+// (it restarts itself with the variable set); a policy the user set stays.
+TEST(Cli, OpenMpThreadsSleepUnlessTheUserSaysOtherwise) {
+  const fs::path dir = test::tempDir("cli_wait_policy");
+  json j = mixedScene();
+  j["frames"]["count"] = 1;
+  const std::string scene = test::writeScene(dir, j);
+  for (const auto& [env, expect] : {std::pair<std::string, std::string>{"env -u OMP_WAIT_POLICY", "passive"},
+                                    {"OMP_WAIT_POLICY=active", "active"}}) {
+    const Result r = triad(dir, "run " + scene + " --quiet --out " + (dir / "cache").string(), env);
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(json::parse(slurp(dir / "cache/run.json"))["omp_wait_policy"], expect) << env;
+  }
+}
+
 // A shorter run into the directory of a longer one leaves no stale frames.
 TEST(Cli, RerunRemovesFramesBeyondTheNewCount) {
   const fs::path dir = test::tempDir("cli_rerun");
