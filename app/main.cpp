@@ -5,6 +5,7 @@
 #include <cstdlib>
 #include <string>
 
+#include "app/check_scene.h"
 #include "app/render_cache.h"
 #include "app/run_scene.h"
 
@@ -44,6 +45,14 @@ int main(int argc, char** argv) {
   render_cmd->add_option("cache", render.cache_dir, "Cache directory (a run's output)")->required();
   render_cmd->add_option("--threads", render.threads, "Worker threads")->check(CLI::Range(1, 1024));
 
+  triad::CheckOptions check;
+  CLI::App* check_cmd = app.add_subcommand(
+      "check", "Validate a scene and estimate what its run needs (particles, memory, steps), "
+               "without simulating");
+  check_cmd->add_option("scene", check.scene_path, "Scene file (JSON)")->required();
+  check_cmd->add_option("--quality", check.quality, "Quality preset, as for run");
+  check_cmd->add_flag("--json", check.json, "The estimate as JSON on stdout");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -52,6 +61,7 @@ int main(int argc, char** argv) {
     return code == 0 ? 0 : triad::kExitBadInput;
   }
   if (render_cmd->parsed()) return triad::renderCache(render);
+  if (check_cmd->parsed()) return triad::checkScene(check);
   if (quiet) run.progress = triad::ProgressMode::Quiet;
   else if (plain) run.progress = triad::ProgressMode::Plain;
   return triad::runScene(run);

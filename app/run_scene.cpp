@@ -13,6 +13,7 @@
 #include "app/interrupt.h"
 #include "export/atomic_file.h"
 #include "export/run_record.h"
+#include "import/estimate.h"
 #include "import/mesh_sampler.h"
 #include "import/quality.h"
 #include "import/scene_loader.h"
@@ -69,6 +70,12 @@ int runScene(const RunOptions& options) {
   try {
     scene = loadScene(options.scene_path);
     if (!options.quality.empty()) applyQuality(scene, options.quality);
+    // What the run will need, before anything is sampled: a scene that
+    // cannot fit is refused, an extreme one said so at once.
+    const SceneEstimate estimate = estimateScene(scene);
+    requireFits(scene, estimate);
+    for (const std::string& w : extremeWarnings(scene, estimate))
+      std::fprintf(stderr, "triad: warning: %s\n", w.c_str());
     world = buildSceneWorld(scene, mesh_cache);
     printMeshWarnings();
     out_dir = options.out_dir.empty() ? scene.output.dir : options.out_dir;

@@ -33,7 +33,7 @@ void compact(std::vector<T>& a, const std::vector<uint8_t>& gone) {
     if (!gone[i]) a[o++] = a[i];
   a.resize(o);
   // Give the memory back once most of it is unused.
-  if (a.capacity() > 2 * a.size() + 4096) a.shrink_to_fit();
+  if (a.capacity() > 2 * a.size() + 256) a.shrink_to_fit();
 }
 
 }  // namespace
@@ -140,22 +140,40 @@ size_t emitFromSources(std::vector<Source>& sources, std::vector<ParticleSet>& s
     // the same whatever the particles' order).
     std::vector<uint32_t> holder(s.sites.size(), std::numeric_limits<uint32_t>::max());
     std::vector<Vec3d> offset(s.sites.size(), Vec3d::Zero());
+    size_t inside = 0;  // the source's own particles in its sites' regions
     for (size_t i = 0; i < set.size(); ++i) {
       if (!near[i]) continue;
       const Vec3d p = asWritten(s.placement, pose, R, set.x[i].cast<double>());
       const int32_t q = siteAt(s, (p - shift - dmin) / dx);
-      if (q < 0 || set.id[i] >= holder[size_t(q)]) continue;
+      if (q < 0) continue;
+      ++inside;
+      if (set.id[i] >= holder[size_t(q)]) continue;
       holder[size_t(q)] = set.id[i];
       offset[size_t(q)] = p - s.sites[size_t(q)].cast<double>();
     }
-    // New particles at the empty sites, in site order. A site emptied by
-    // flow is seeded where its upstream neighbour would now be: a spacing
-    // behind the particle that left it (held by the site downstream), so
-    // the spacing stays exact whatever the step.
+    // The shape holds at most as many particles as it has sites: where the
+    // flow bunches them (material accelerating under gravity meets the new,
+    // slower particles on the grid), empty sites are refilled only up to
+    // that count, the most upstream first (where the flow leaves gaps).
+    std::vector<uint32_t> empty;
+    for (uint32_t q = 0; q < s.sites.size(); ++q)
+      if (holder[q] == std::numeric_limits<uint32_t>::max()) empty.push_back(q);
+    const size_t room = s.sites.size() > inside ? s.sites.size() - inside : 0;
+    if (empty.size() > room) {
+      const Vec3d up = -s.velocity;
+      std::stable_sort(empty.begin(), empty.end(), [&](uint32_t a, uint32_t b) {
+        return s.sites[a].cast<double>().dot(up) > s.sites[b].cast<double>().dot(up);
+      });
+      empty.resize(room);
+      std::sort(empty.begin(), empty.end());
+    }
+    // New particles at those sites, in site order. A site emptied by flow
+    // is seeded where its upstream neighbour would now be: a spacing behind
+    // the particle that left it (held by the site downstream), so the
+    // spacing stays exact whatever the step.
     const Vec3d v_emit = R * s.velocity;
     const Vec3d step = shift.isZero() ? Vec3d::Zero() : Vec3d(2.0 * shift);
-    for (size_t q = 0; q < s.sites.size(); ++q) {
-      if (holder[q] != std::numeric_limits<uint32_t>::max()) continue;
+    for (const uint32_t q : empty) {
       if (next_id == std::numeric_limits<uint32_t>::max())
         throw SimulationError("source '" + s.name + "' at t = " + std::to_string(t) +
                               " s: particle ids would pass 2^32");
@@ -164,8 +182,9 @@ size_t emitFromSources(std::vector<Source>& sources, std::vector<ParticleSet>& s
         const int32_t down = siteAt(s, (at + step - dmin) / dx);
         if (down >= 0 && holder[size_t(down)] != std::numeric_limits<uint32_t>::max()) {
           const Vec3d o = offset[size_t(down)];
-          // Only along the flow, and within the site's own region.
-          const double along = std::clamp(o.dot(step) / step.squaredNorm(), 0.0, 1.0);
+          // Only along the flow, and well inside the site's own region (at its
+          // far edge it would count for the site downstream).
+          const double along = std::clamp(o.dot(step) / step.squaredNorm(), 0.0, 0.5);
           at += along * step;
         }
       }

@@ -1,0 +1,235 @@
+#include "import/estimate.h"
+
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+
+#include <nlohmann/json.hpp>
+
+#include "import/mesh_loader.h"
+#include "import/param_dict.h"
+#include "sim/errors.h"
+#include "sim/materials/materials.h"
+#include "sim/mpm/particles.h"
+#include "sim/mpm/sampling.h"
+
+namespace triad {
+
+namespace {
+
+// Bytes per MPM particle besides its state: binning (block and source
+// index, 8), the reordering scratch (36) and the sparse grid's share (16)
+// (bench/RESULTS.md, "Where the bytes go").
+constexpr double kParticleOverhead = 60.0;
+// A rigid or collider sample: its rest data and its points each step.
+constexpr double kSampleBytes = 90.0;
+// An elastic sample (a FEM node and its six tetrahedra); implicit solids
+// also keep each element's 12 x 12 stiffness.
+constexpr double kElasticSampleBytes = 1000.0, kImplicitSampleBytes = 8000.0;
+// Particle-substeps per second on the project's 2-core machine.
+constexpr double kRate = 9e6;
+
+Vec3d toVec(const Vec3Desc& a) { return Vec3d(a[0], a[1], a[2]); }
+
+// Lattice points of one axis in [lo, hi) of the domain, at in-cell offsets o.
+double axisPoints(double lo, double hi, double dmin, double dmax, double dx,
+                  const std::vector<double>& offsets) {
+  lo = std::max(lo, dmin);
+  hi = std::min(hi, dmax);
+  double n = 0;
+  for (double o : offsets) {
+    const double a = std::ceil((lo - dmin) / dx - o), b = std::ceil((hi - dmin) / dx - o);
+    n += std::max(0.0, b - a);
+  }
+  return n;
+}
+
+double shapeVolume(const ShapeDesc& shape, const DomainDesc& d) {
+  if (const auto* b = std::get_if<BoxDesc>(&shape)) {
+    double v = 1;
+    for (int a = 0; a < 3; ++a) v *= std::max(0.0, std::min(b->max[a], d.max[a]) - std::max(b->min[a], d.min[a]));
+    return v;
+  }
+  if (const auto* s = std::get_if<SphereDesc>(&shape)) return 4.0 / 3.0 * M_PI * std::pow(s->radius, 3);
+  MeshDesc m = std::get<MeshDesc>(shape);
+  if (m.sequence_digits > 0) {
+    m.resolved_path = sequenceFrame(m.resolved_path, m.sequence_digits, 0);
+    m.sequence_digits = 0;
+  }
+  return std::abs(loadMesh(m).mesh.signedVolume());
+}
+
+// MPM particles a shape gets: exact for boxes on a k x k x k lattice.
+double mpmParticles(const ShapeDesc& shape, const DomainDesc& d, int ppc) {
+  const int k = int(std::lround(std::cbrt(double(ppc))));
+  if (const auto* b = std::get_if<BoxDesc>(&shape); b && k * k * k == ppc) {
+    std::vector<double> offsets;
+    for (int a = 0; a < k; ++a) offsets.push_back((a + 0.5) / k);
+    double n = 1;
+    for (int a = 0; a < 3; ++a) n *= axisPoints(b->min[a], b->max[a], d.min[a], d.max[a], d.dx, offsets);
+    return n;
+  }
+  return shapeVolume(shape, d) * ppc / std::pow(d.dx, 3);
+}
+
+double availableBytes() {
+  double avail = double(sysconf(_SC_PHYS_PAGES)) * double(sysconf(_SC_PAGE_SIZE));
+  rlimit r{};
+  if (getrlimit(RLIMIT_AS, &r) == 0 && r.rlim_cur != RLIM_INFINITY) avail = std::min(avail, double(r.rlim_cur));
+  std::ifstream cg("/sys/fs/cgroup/memory.max");
+  double limit = 0;
+  if (cg >> limit && limit > 0) avail = std::min(avail, limit);
+  return avail;
+}
+
+std::string bytesText(double b) {
+  char buf[32];
+  const char* unit[] = {"B", "KiB", "MiB", "GiB", "TiB", "PiB", "EiB"};
+  int u = 0;
+  while (b >= 1024 && u < 6) b /= 1024, ++u;
+  std::snprintf(buf, sizeof buf, "%.3g %s", b, unit[u]);
+  return buf;
+}
+
+std::string countText(double n) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, n < 1e6 ? "%.0f" : "%.3g", n);
+  return buf;
+}
+
+}  // namespace
+
+SceneEstimate estimateScene(const SceneDesc& scene) {
+  SceneEstimate e;
+  const DomainDesc& d = scene.domain;
+  const int ppc = scene.solver.particles_per_cell;
+  double c = 0;  // fastest wave
+  double dt_solid = scene.solver.max_dt;
+  for (size_t i = 0; i < scene.objects.size(); ++i) {
+    const ObjectDesc& o = scene.objects[i];
+    ObjectEstimate oe;
+    oe.name = o.name;
+    try {
+      if (o.kind == ObjectKind::Mpm) {
+        const MaterialDesc& m = scene.materials[size_t(o.material)];
+        ParticleSet probe;
+        probe.model = makeMaterial(m);
+        const double per = 66.0 + (probe.usesF() ? 36 : 0) + (probe.usesJ() ? 4 : 0) + kParticleOverhead;
+        oe.particles = mpmParticles(o.shape, d, ppc);
+        if (o.emit) {
+          // A source: its fill, then about a face of its shape flowing out
+          // at its speed while it runs.
+          const double face = std::pow(shapeVolume(o.shape, d), 2.0 / 3.0);
+          oe.particles += toVec(o.velocity).norm() * face * (o.emit->end - o.emit->start) * ppc /
+                          std::pow(d.dx, 3);
+        }
+        oe.bytes = oe.particles * per;
+        e.particles += oe.particles;
+        c = std::max(c, double(waveSpeed(m)));
+      } else if (o.kind != ObjectKind::Sink) {
+        const double h = o.sample_spacing > 0 ? o.sample_spacing : 0.5 * d.dx;
+        oe.particles = shapeVolume(o.shape, d) / (h * h * h);
+        double per = kSampleBytes;
+        if (o.kind == ObjectKind::Elastic) {
+          const MaterialDesc& m = scene.materials[size_t(o.material)];
+          per = o.integrator == ElasticIntegrator::Implicit ? kImplicitSampleBytes : kElasticSampleBytes;
+          // The explicit elements' step: a wave crossing an element's height.
+          if (o.integrator == ElasticIntegrator::Explicit)
+            dt_solid = std::min(dt_solid, std::min(scene.solver.cfl, 0.5) * h / std::sqrt(3.0) /
+                                              double(waveSpeed(m)));
+        }
+        oe.bytes = oe.particles * per;
+      }
+    } catch (const InputError& err) {
+      if (!err.where().empty()) throw;
+      throw InputError(scene.source_path + ": objects[" + std::to_string(i) + "].shape", err.what());
+    }
+    e.memory_bytes += oe.bytes;
+    e.objects.push_back(oe);
+  }
+  e.first_dt = scene.solver.max_dt;
+  if (c > 0) e.first_dt = std::min(e.first_dt, scene.solver.cfl * d.dx / c);
+  e.first_dt = std::min(e.first_dt, dt_solid);
+  e.substeps_per_frame = 1.0 / (scene.frames.fps * e.first_dt);
+  const double substeps = e.substeps_per_frame * scene.frames.count;
+  e.wall_seconds = std::max(e.particles, 1.0) * substeps / kRate;
+  if (scene.output.ply) e.disk_bytes_per_frame += 36.0 * e.particles;
+  if (scene.output.vdb) e.disk_bytes_per_frame += 16.0 * e.particles / ppc;
+  e.available_bytes = availableBytes();
+  return e;
+}
+
+void requireFits(const SceneDesc& scene, const SceneEstimate& e) {
+  if (e.memory_bytes <= e.available_bytes) return;
+  size_t worst = 0;
+  for (size_t i = 1; i < e.objects.size(); ++i)
+    if (e.objects[i].bytes > e.objects[worst].bytes) worst = i;
+  const ObjectEstimate& o = e.objects[worst];
+  throw InputError(
+      scene.source_path + ": objects[" + std::to_string(worst) + "]",
+      "'" + o.name + "' needs about " + countText(o.particles) + " particles or samples, " +
+          bytesText(o.bytes) + "; the scene needs about " + bytesText(e.memory_bytes) +
+          " in all, more than the " + bytesText(e.available_bytes) +
+          " of memory available. Raise domain.dx (particles go as 1/dx^3; dx = " +
+          formatNumber(scene.domain.dx) + ") or lower solver.particles_per_cell (" +
+          std::to_string(scene.solver.particles_per_cell) + ")");
+}
+
+std::string describeEstimate(const SceneEstimate& e) {
+  std::string s;
+  char buf[256];
+  for (const ObjectEstimate& o : e.objects) {
+    if (o.particles == 0) continue;
+    std::snprintf(buf, sizeof buf, "  %-20s %12s particles or samples, %s\n", o.name.c_str(),
+                  countText(o.particles).c_str(), bytesText(o.bytes).c_str());
+    s += buf;
+  }
+  char wall[32];
+  std::snprintf(wall, sizeof wall, "%.3g s", e.wall_seconds);
+  std::snprintf(buf, sizeof buf,
+                "  memory about %s of %s available; first step %.3g s, %.3g substeps a frame; "
+                "disk about %s a frame; about %s on 2 cores\n",
+                bytesText(e.memory_bytes).c_str(), bytesText(e.available_bytes).c_str(), e.first_dt,
+                e.substeps_per_frame, bytesText(e.disk_bytes_per_frame).c_str(), wall);
+  return s + buf;
+}
+
+std::string estimateJson(const SceneEstimate& e) {
+  nlohmann::ordered_json j;
+  nlohmann::ordered_json objs = nlohmann::ordered_json::array();
+  for (const ObjectEstimate& o : e.objects)
+    objs.push_back({{"name", o.name}, {"particles", o.particles}, {"bytes", o.bytes}});
+  j["objects"] = objs;
+  j["particles"] = e.particles;
+  j["memory_bytes"] = e.memory_bytes;
+  j["available_bytes"] = e.available_bytes;
+  j["first_dt"] = e.first_dt;
+  j["substeps_per_frame"] = e.substeps_per_frame;
+  j["disk_bytes_per_frame"] = e.disk_bytes_per_frame;
+  j["wall_seconds"] = e.wall_seconds;
+  return j.dump(2);
+}
+
+std::vector<std::string> extremeWarnings(const SceneDesc& scene, const SceneEstimate& e) {
+  std::vector<std::string> w;
+  char buf[256];
+  if (e.substeps_per_frame > 1e5) {
+    std::snprintf(buf, sizeof buf,
+                  "%s: about %.3g substeps a frame (first step %.3g s, from the stiffest "
+                  "material's wave speed and solver.cfl): a frame will take long",
+                  scene.source_path.c_str(), e.substeps_per_frame, e.first_dt);
+    w.push_back(buf);
+  }
+  if (e.wall_seconds > 86400) {
+    std::snprintf(buf, sizeof buf, "%s: the run may take about %.3g days on 2 cores (%.3g particles)",
+                  scene.source_path.c_str(), e.wall_seconds / 86400, e.particles);
+    w.push_back(buf);
+  }
+  return w;
+}
+
+}  // namespace triad

@@ -1,0 +1,51 @@
+#pragma once
+// What a scene will need, estimated from its description before anything
+// is sampled: particles per object, bytes of memory, the first step and
+// substeps per frame, disk per frame. `triad run` refuses a scene whose
+// memory estimate exceeds the memory available (exit 2, naming the object
+// that asks for the most) and says at once when a run will be extreme;
+// `triad check` prints it.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "sim/scene_desc.h"
+
+namespace triad {
+
+struct ObjectEstimate {
+  std::string name;
+  double particles = 0;  // MPM particles (a source: its fill plus what it emits), or solid samples
+  double bytes = 0;
+};
+
+struct SceneEstimate {
+  std::vector<ObjectEstimate> objects;  // scene order
+  double particles = 0;                 // MPM particles in all
+  double memory_bytes = 0;              // particles, grids, solids
+  double first_dt = 0;                  // s, from the materials' wave speeds and solver.max_dt
+  double substeps_per_frame = 0;
+  double disk_bytes_per_frame = 0;      // PLY particles and VDB volumes, roughly
+  double available_bytes = 0;           // physical memory, or a lower process limit
+  // Wall seconds at a rate measured on the project's 2-core machine
+  // (bench/RESULTS.md): for an order of magnitude, not a promise.
+  double wall_seconds = 0;
+};
+
+// Estimates `scene` (meshes are read for their volume, not voxelized).
+// Throws InputError for a mesh it cannot read.
+SceneEstimate estimateScene(const SceneDesc& scene);
+
+// Throws InputError (naming the object asking for the most, its count and
+// bytes, and what to change) when the memory estimate exceeds what is
+// available.
+void requireFits(const SceneDesc& scene, const SceneEstimate& e);
+
+// One line per object and a summary, for people; and as JSON, for tools.
+std::string describeEstimate(const SceneEstimate& e);
+std::string estimateJson(const SceneEstimate& e);
+
+// Warnings worth printing at once (over 1e5 substeps a frame, over a day).
+std::vector<std::string> extremeWarnings(const SceneDesc& scene, const SceneEstimate& e);
+
+}  // namespace triad
