@@ -22,7 +22,8 @@ struct ObjectEstimate {
 struct SceneEstimate {
   std::vector<ObjectEstimate> objects;  // scene order
   double particles = 0;                 // MPM particles in all
-  double memory_bytes = 0;              // particles, grids, solids
+  double memory_bytes = 0;              // peak resident: particles, grids, solids, the process itself
+  double baseline_bytes = 0;            // the process's own resident size (code, libraries)
   double first_dt = 0;                  // s, from the materials' wave speeds and solver.max_dt
   double substeps_per_frame = 0;
   double disk_bytes_per_frame = 0;      // PLY particles and VDB volumes, roughly

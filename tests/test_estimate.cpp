@@ -1,0 +1,102 @@
+// Estimates before work: `triad check` validates a scene and says what its
+// run will need; `triad run` refuses at once a scene that cannot fit in
+// memory, naming the object, and warns at once about an extreme one.
+#include <gtest/gtest.h>
+#include <sys/resource.h>
+
+#include <chrono>
+
+#include "cli_fixture.h"
+#include "scene_fixture.h"
+
+namespace triad {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+// A box, a sphere and a mesh of MPM material, and a rigid body.
+json mixedShapes(const fs::path& dir) {
+  fs::copy_file(fs::path(TRIAD_SOURCE_DIR) / "scenes/meshes/torus.obj", dir / "torus.obj",
+                fs::copy_options::overwrite_existing);
+  json j = test::baseScene("estimate", {1, 0.6, 0.6}, 0.02);
+  j["materials"]["sand"] = {{"model", "drucker_prager"}, {"density", 1600},
+                            {"youngs_modulus", 2e5}, {"poisson_ratio", 0.3}};
+  j["materials"]["water"] = {{"model", "water"}, {"density", 1000}, {"bulk_modulus", 1e5}};
+  j["objects"] = {
+      {{"name", "bed"}, {"kind", "mpm"}, {"material", "sand"},
+       {"shape", test::box({0, 0, 0}, {1, 0.1, 0.6})}},
+      {{"name", "drop"}, {"kind", "mpm"}, {"material", "water"},
+       {"shape", {{"sphere", {{"center", {0.3, 0.3, 0.3}}, {"radius", 0.1}}}}}},
+      {{"name", "ring"}, {"kind", "mpm"}, {"material", "sand"},
+       {"shape", {{"mesh", {{"path", "torus.obj"}, {"scale", 0.2}, {"translate", {0.7, 0.3, 0.3}}}}}}},
+      {{"name", "crate"}, {"kind", "rigid"}, {"density", 500},
+       {"shape", test::box({0.2, 0.45, 0.2}, {0.3, 0.55, 0.3})}}};
+  j["frames"] = {{"count", 1}, {"fps", 24}};
+  j["output"] = {{"vdb", false}, {"png", false}};
+  return j;
+}
+
+TEST(Estimate, CheckCountsTheParticlesARunMakes) {
+  const fs::path dir = test::tempDir("estimate_count");
+  const std::string scene = test::writeScene(dir, mixedShapes(dir));
+  const test::CliResult c = test::runTriad(dir, "check " + scene + " --json");
+  ASSERT_EQ(c.status, 0) << c.err;
+  const json est = json::parse(c.out);
+  ASSERT_EQ(test::runTriad(dir, "run " + scene + " --quiet --out " + (dir / "out").string()).status, 0);
+  const json rec = json::parse(test::slurp(dir / "out" / "run.json"));
+  for (int k = 0; k < 3; ++k) {
+    const std::string name = est["objects"][k]["name"];
+    const double estimated = est["objects"][k]["particles"].get<double>();
+    const double made = rec["particles"]["per_object"][name].get<double>();
+    EXPECT_NEAR(estimated, made, 0.01 * made) << name;  // the box exactly, the others by volume
+  }
+  EXPECT_EQ(est["objects"][0]["particles"].get<double>(),
+            rec["particles"]["per_object"]["bed"].get<double>());
+  // And for people: a line per object.
+  const test::CliResult text = test::runTriad(dir, "check " + scene);
+  EXPECT_EQ(text.status, 0);
+  EXPECT_NE(text.out.find("valid; estimate"), std::string::npos) << text.out;
+  EXPECT_NE(text.out.find("bed"), std::string::npos) << text.out;
+  EXPECT_NE(text.out.find("substeps a frame"), std::string::npos) << text.out;
+}
+
+// dx = 1e-5 m asks for about 1e14 particles: refused before any sampling,
+// in well under 5 s and 1 GiB, naming the object, the count and what to
+// change; `triad check` says the same with exit 2.
+TEST(Estimate, SceneThatCannotFitExitsTwoAtOnce) {
+  const fs::path dir = test::tempDir("estimate_huge");
+  json j = mixedShapes(dir);
+  j["domain"]["dx"] = 1e-5;
+  const std::string scene = test::writeScene(dir, j);
+  const auto t0 = std::chrono::steady_clock::now();
+  const test::CliResult r = test::runTriad(
+      dir, "run " + scene + " --quiet --out " + (dir / "out").string(), "ulimit -v 1048576;");
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  EXPECT_EQ(r.status, 2) << r.err;
+  EXPECT_LT(seconds, 5.0);
+  EXPECT_NE(r.err.find("objects[0]"), std::string::npos) << r.err;  // the bed asks the most
+  EXPECT_NE(r.err.find("'bed' needs about"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("Raise domain.dx"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "out" / "particles")) << "nothing written";
+  const test::CliResult c = test::runTriad(dir, "check " + scene);
+  EXPECT_EQ(c.status, 2);
+  EXPECT_NE(c.err.find("'bed' needs about"), std::string::npos) << c.err;
+}
+
+// A water of bulk modulus 1e14 Pa needs steps of about 1e-8 s: the run says
+// so at once (its estimate), then goes on.
+TEST(Estimate, StiffSceneWarnsAtOnce) {
+  const fs::path dir = test::tempDir("estimate_stiff");
+  json j = mixedShapes(dir);
+  j["materials"]["water"]["bulk_modulus"] = 1e14;
+  const std::string scene = test::writeScene(dir, j);
+  const test::CliResult r = test::runTriad(
+      dir, "run " + scene + " --plain --out " + (dir / "out").string(), "timeout 5");
+  EXPECT_EQ(r.status, 124) << r.err;  // still running when stopped: it went on
+  EXPECT_NE(r.err.find("substeps a frame"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("warning"), std::string::npos) << r.err;
+}
+
+}  // namespace
+}  // namespace triad
