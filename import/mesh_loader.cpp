@@ -1,6 +1,7 @@
 #include "import/mesh_loader.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -8,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <numeric>
+#include <sstream>
 #include <unordered_map>
 
 #include <Eigen/Geometry>
@@ -314,6 +316,74 @@ void repairMesh(TriangleMesh& mesh, MeshLoadResult& report) {
                    " separate shells (overlaps are merged: the inside is their union)");
 }
 
+namespace {
+
+// assimp 5.2's PLY reader loops for ever on some malformed headers (an
+// element without properties, a property before any element: found by
+// fuzz/fuzz_mesh.cpp). A PLY file's header is checked here first, to its
+// grammar: "ply", a format line, then comment, obj_info, element NAME
+// COUNT, property TYPE NAME and property list TYPE TYPE NAME lines up to
+// end_header, every element with at least one property.
+void checkPlyHeader(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::string line;
+  auto fail = [&](int n, const std::string& why) {
+    throw InputError(path, "not a valid PLY file: header line " + std::to_string(n) + ": " + why);
+  };
+  auto trim = [](std::string l) {
+    while (!l.empty() && (l.back() == '\r' || l.back() == ' ' || l.back() == '\t')) l.pop_back();
+    return l;
+  };
+  if (!std::getline(in, line) || trim(line) != "ply") fail(1, "expected \"ply\"");
+  int n = 1, elements = 0, properties = 0;
+  std::string element;
+  bool format = false;
+  while (std::getline(in, line)) {
+    ++n;
+    if (n > 10000) fail(n, "no end_header in the first 10000 lines");
+    std::istringstream words(trim(line));
+    std::string key;
+    words >> key;
+    if (key == "comment" || key == "obj_info") continue;
+    if (key == "format") {
+      std::string kind, version;
+      words >> kind >> version;
+      if (kind != "ascii" && kind != "binary_little_endian" && kind != "binary_big_endian")
+        fail(n, "expected a format of ascii, binary_little_endian or binary_big_endian, got \"" +
+                    kind + "\"");
+      format = true;
+      continue;
+    }
+    if (key == "element") {
+      if (elements > 0 && properties == 0) fail(n, "element \"" + element + "\" has no property");
+      long long count = -1;
+      if (!(words >> element >> count) || count < 0)
+        fail(n, "expected \"element NAME COUNT\", got \"" + trim(line) + "\"");
+      ++elements;
+      properties = 0;
+      continue;
+    }
+    if (key == "property") {
+      if (elements == 0) fail(n, "a property before any element");
+      std::string type, a, b;
+      if (!(words >> type >> a)) fail(n, "expected \"property TYPE NAME\"");
+      if (type == "list" && !(words >> b)) fail(n, "expected \"property list TYPE TYPE NAME\"");
+      ++properties;
+      continue;
+    }
+    if (key == "end_header") {
+      if (!format) fail(n, "no format line before end_header");
+      if (elements == 0) fail(n, "no element");
+      if (properties == 0) fail(n, "element \"" + element + "\" has no property");
+      return;
+    }
+    fail(n, "unknown keyword \"" + key + "\"");
+  }
+  fail(n, "the header has no end_header");
+}
+
+}  // namespace
+
 MeshLoadResult loadMeshFile(const std::string& path) {
   MeshDesc d;
   d.path = d.resolved_path = path;
@@ -327,6 +397,11 @@ MeshLoadResult loadMesh(const MeshDesc& desc) {
     throw InputError(path, "cannot read the mesh: the file does not exist");
   if (!std::filesystem::is_regular_file(path, ec))
     throw InputError(path, "cannot read the mesh: not a regular file");
+  {
+    std::string ext = std::filesystem::path(path).extension().string();
+    for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+    if (ext == ".ply") checkPlyHeader(path);
+  }
   if (!std::ifstream(path, std::ios::binary))
     throw InputError(path, "cannot read the mesh: the file cannot be opened");
   if (std::filesystem::file_size(path, ec) == 0)

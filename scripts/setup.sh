@@ -19,6 +19,8 @@ PACKAGES=(
   # tests/ (vdb_print reads the VDB caches back independently; assimp-testmodels
   # holds real-world and broken meshes for the import tests)
   libgtest-dev libopenvdb-tools assimp-testmodels
+  # scripts/fuzz.sh: libFuzzer with clang's sanitizers
+  clang libclang-rt-14-dev
 )
 if [ "${1:-}" = "--validation" ]; then
   # bench/validation/: runs the scenes, reads the caches, plots error against cost

@@ -498,6 +498,18 @@ TEST_F(MeshImport, BrokenFilesAreInputErrors) {
   expectInputError(writeText("points.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\np 1\np 2 3\n"), "no triangles");
   expectInputError(writeText("range.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n"), "cannot read the mesh");
   expectInputError(writeText("degenerate.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 2\n"), "no triangles");
+  // PLY headers on which assimp's reader loops for ever (found by
+  // fuzz/fuzz_mesh.cpp; also in fuzz/corpus/mesh/): refused by their grammar.
+  const std::string body = "1 1 1\n1 1 0\n4 0 1 2 3\n";
+  expectInputError(writeText("noprop.ply", "ply\nformat ascii 1.0\nelement vertex 8\nproperty "
+                                           "float32 x\nproperty float32 y\nproperty float32 z\n"
+                                           "element face 6\nend_header\n" + body),
+                   "header line 8: element \"face\" has no property");
+  expectInputError(writeText("early.ply", "ply\nformat ascii 1.0\nelemen\nproperty float32 x\n"
+                                          "end_header\n" + body),
+                   "header line 3: unknown keyword \"elemen\"");
+  expectInputError(writeText("orphan.ply", "ply\nformat ascii 1.0\nproperty float32 x\nend_header\n"),
+                   "header line 3: a property before any element");
 }
 
 // Real-world files, as other tools wrote them: Debian's assimp-testmodels

@@ -1,0 +1,38 @@
+#!/usr/bin/env bash
+# Fuzzes the scene loader and the mesh importer with libFuzzer (clang, with
+# AddressSanitizer and UndefinedBehaviorSanitizer) for SECONDS each
+# (default 60), from the seed corpora in fuzz/corpus/ plus the repository's
+# own scenes and meshes. A crash stops it with the input saved under
+# build-fuzz/ (add it to fuzz/corpus/ once fixed: it stays a regression
+# input). scripts/test.sh runs it; scripts/setup.sh installs clang.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+seconds=${1:-60}
+out=build-fuzz
+mkdir -p "$out/scene" "$out/mesh"
+flags=(-std=c++17 -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined
+       -I. -I/usr/include/eigen3)
+clang++ "${flags[@]}" fuzz/fuzz_scene.cpp import/scene_file.cpp import/scene_loader.cpp \
+  import/param_dict.cpp -o "$out/fuzz_scene"
+clang++ "${flags[@]}" fuzz/fuzz_mesh.cpp import/mesh_loader.cpp sim/shot/animation.cpp \
+  -lassimp -o "$out/fuzz_mesh"
+# Seeds: the corpora, every scene of the repository, its meshes (first
+# byte: the format, as fuzz_mesh reads it).
+cp fuzz/corpus/scene/* scenes/*.json bench/scenes/*.json "$out/scene/" 2>/dev/null || true
+cp fuzz/corpus/mesh/* "$out/mesh/" 2>/dev/null || true
+for m in scenes/meshes/*.obj; do { printf '\000'; cat "$m"; } > "$out/mesh/seed_$(basename "$m")"; done
+# Small real-world and broken files of the other formats (assimp-testmodels).
+models=/usr/share/assimp/models
+k=1
+for ext in stl ply gltf; do
+  for m in $(find "$models" -iname "*.$ext" -size -20k 2>/dev/null | sort | head -12); do
+    { printf "\\$(printf '%03o' $k)"; cat "$m"; } > "$out/mesh/seed_${ext}_$(basename "$m")"
+  done
+  k=$((k + 1))
+done
+export ASAN_OPTIONS=detect_leaks=0
+# Each run writes crash-*, leak-* or timeout-* inputs into the build dir.
+(cd "$out" && ./fuzz_scene -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
+   -print_final_stats=1 scene 2>&1 | tail -12)
+(cd "$out" && ./fuzz_mesh -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
+   -print_final_stats=1 mesh 2>&1 | tail -12)
