@@ -4,10 +4,19 @@
 # (default 60), from the seed corpora in fuzz/corpus/ plus the repository's
 # own scenes and meshes. A crash stops it with the input saved under
 # build-fuzz/ (add it to fuzz/corpus/ once fixed: it stays a regression
-# input). scripts/test.sh runs it; scripts/setup.sh installs clang.
+# input). scripts/test.sh runs the scene target; scripts/setup.sh installs
+# clang.
+#   scripts/fuzz.sh [SECONDS] [scene] [mesh]   (both targets when none named)
+# The mesh target is not in the suite yet: after some thousands of inputs
+# assimp 5.2 leaves its scene graph corrupt (a node's child array read out
+# of bounds, an input that loads cleanly on its own), a fault inside the
+# library that this harness cannot attribute to one input.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-60}
+shift || true
+targets=("$@")
+[ ${#targets[@]} -eq 0 ] && targets=(scene mesh)
 out=build-fuzz
 mkdir -p "$out/scene" "$out/mesh"
 flags=(-std=c++17 -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined
@@ -32,7 +41,7 @@ for ext in stl ply gltf; do
 done
 export ASAN_OPTIONS=detect_leaks=0
 # Each run writes crash-*, leak-* or timeout-* inputs into the build dir.
-(cd "$out" && ./fuzz_scene -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
-   -print_final_stats=1 scene 2>&1 | tail -12)
-(cd "$out" && ./fuzz_mesh -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
-   -print_final_stats=1 mesh 2>&1 | tail -12)
+for t in "${targets[@]}"; do
+  (cd "$out" && "./fuzz_$t" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
+     -print_final_stats=1 "$t" 2>&1 | tail -12)
+done
