@@ -38,8 +38,8 @@ void compact(std::vector<T>& a, const std::vector<uint8_t>& gone) {
 
 }  // namespace
 
-bool Sink::contains(const Vec3d& p, const Pose& pose) const {
-  const Vec3d q = asWritten(placement, pose, pose.rotation.toRotationMatrix(), p);
+bool Sink::contains(const Vec3d& p, const Pose& pose, const Mat3d& R) const {
+  const Vec3d q = asWritten(placement, pose, R, p);
   if (const auto* b = std::get_if<BoxDesc>(&shape)) {
     for (int d = 0; d < 3; ++d)
       if (q[d] < b->min[d] || q[d] > b->max[d]) return false;
@@ -202,7 +202,11 @@ size_t emitFromSources(std::vector<Source>& sources, std::vector<ParticleSet>& s
 size_t removeInSinks(std::vector<Sink>& sinks, std::vector<ParticleSet>& sets, double t) {
   if (sinks.empty()) return 0;
   std::vector<Pose> poses;
-  for (const Sink& k : sinks) poses.push_back(k.placement.animation.at(t));
+  std::vector<Mat3d> rotations;
+  for (const Sink& k : sinks) {
+    poses.push_back(k.placement.animation.at(t));
+    rotations.push_back(poses.back().rotation.toRotationMatrix());
+  }
   size_t removed = 0;
   for (ParticleSet& set : sets) {
     // Per particle, 1 + the first sink that holds it, or 0.
@@ -210,7 +214,7 @@ size_t removeInSinks(std::vector<Sink>& sinks, std::vector<ParticleSet>& sets, d
 #pragma omp parallel for schedule(static) if (set.size() > 16384)
     for (int64_t i = 0; i < int64_t(set.size()); ++i)
       for (size_t k = 0; k < sinks.size(); ++k)
-        if (sinks[k].contains(set.x[i].cast<double>(), poses[k])) {
+        if (sinks[k].contains(set.x[i].cast<double>(), poses[k], rotations[k])) {
           by[i] = uint16_t(k + 1);
           break;
         }

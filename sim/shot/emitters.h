@@ -63,8 +63,8 @@ struct Sink {
   std::vector<uint8_t> inside;
   Placement placement;
   uint64_t removed = 0;
-  // Whether world point p is inside at time t.
-  bool contains(const Vec3d& p, const Pose& pose) const;
+  // Whether world point p is inside at the pose whose rotation is R.
+  bool contains(const Vec3d& p, const Pose& pose, const Mat3d& R) const;
 };
 
 // Builds a source from its sites (sampleShape of its shape as written).
