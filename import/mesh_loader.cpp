@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <iterator>
 #include <limits>
 #include <filesystem>
 #include <fstream>
@@ -18,6 +19,8 @@
 #include <assimp/Importer.hpp>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
+
+#include <nlohmann/json.hpp>
 
 #include "sim/errors.h"
 
@@ -382,6 +385,66 @@ void checkPlyHeader(const std::string& path) {
   fail(n, "the header has no end_header");
 }
 
+// assimp drops a glTF triangle whose index is past its vertices, which
+// then reads as a hole that the repair closes. The indices of every
+// primitive of a .gltf file (buffers in files next to it) are checked here
+// first, so that the fault is named. Anything this check cannot read is
+// left to assimp.
+void checkGltfIndices(const std::string& path) {
+  nlohmann::json g;
+  try {
+    std::ifstream in(path, std::ios::binary);
+    g = nlohmann::json::parse(in);
+  } catch (const std::exception&) {
+    return;
+  }
+  try {
+    const auto& accessors = g.at("accessors");
+    const auto& views = g.at("bufferViews");
+    const auto& buffers = g.at("buffers");
+    std::vector<std::string> data(buffers.size());
+    const std::filesystem::path dir = std::filesystem::path(path).parent_path();
+    const auto& meshes = g.at("meshes");
+    for (size_t m = 0; m < meshes.size(); ++m) {
+      const auto& prims = meshes[m].at("primitives");
+      for (size_t p = 0; p < prims.size(); ++p) {
+        if (!prims[p].contains("indices")) continue;
+        const auto& idx = accessors.at(prims[p].at("indices").get<size_t>());
+        const auto& pos = accessors.at(prims[p].at("attributes").at("POSITION").get<size_t>());
+        const size_t vertices = pos.at("count").get<size_t>();
+        const auto& view = views.at(idx.at("bufferView").get<size_t>());
+        const size_t b = view.at("buffer").get<size_t>();
+        const std::string uri = buffers.at(b).at("uri").get<std::string>();
+        if (uri.rfind("data:", 0) == 0) continue;
+        if (data[b].empty()) {
+          std::ifstream bin(dir / uri, std::ios::binary);
+          data[b].assign(std::istreambuf_iterator<char>(bin), {});
+        }
+        const int type = idx.at("componentType").get<int>();
+        const size_t size = type == 5121 ? 1 : type == 5123 ? 2 : type == 5125 ? 4 : 0;
+        if (size == 0) continue;
+        const size_t stride = view.value("byteStride", size);
+        const size_t start = view.value("byteOffset", size_t(0)) + idx.value("byteOffset", size_t(0));
+        const size_t count = idx.at("count").get<size_t>();
+        for (size_t k = 0; k < count; ++k) {
+          const size_t at = start + k * stride;
+          if (at + size > data[b].size()) break;  // a short buffer: assimp says so
+          uint32_t v = 0;
+          std::memcpy(&v, data[b].data() + at, size);  // little-endian, as glTF is
+          if (v >= vertices)
+            throw InputError(path, "invalid mesh: primitive " + std::to_string(p) + " of mesh " +
+                                       std::to_string(m) + " uses vertex index " +
+                                       std::to_string(v) + " (index " + std::to_string(k) +
+                                       "), but it has only " + std::to_string(vertices) +
+                                       " vertices");
+        }
+      }
+    }
+  } catch (const nlohmann::json::exception&) {
+    return;  // not the layout this check reads: assimp judges
+  }
+}
+
 }  // namespace
 
 MeshLoadResult loadMeshFile(const std::string& path) {
@@ -401,6 +464,7 @@ MeshLoadResult loadMesh(const MeshDesc& desc) {
     std::string ext = std::filesystem::path(path).extension().string();
     for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
     if (ext == ".ply") checkPlyHeader(path);
+    if (ext == ".gltf") checkGltfIndices(path);
   }
   if (!std::ifstream(path, std::ios::binary))
     throw InputError(path, "cannot read the mesh: the file cannot be opened");

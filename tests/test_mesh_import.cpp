@@ -544,6 +544,16 @@ TEST_F(MeshImport, RealWorldFilesFromAssimpTestModels) {
   const double r = 0.2;
   EXPECT_NEAR(sampledVolume(sampler(placed("STL/sphereWithHole.stl"), domain(0.02), 8), 0.02, 8),
               4.0 / 3.0 * M_PI * r * r * r, 0.05 * 4.0 / 3.0 * M_PI * r * r * r);
+  // A glTF with one index past its 24 vertices (assimp would drop the
+  // triangle, which then read as a repaired hole) is refused naming it.
+  try {
+    loadMeshFile((root / "glTF2/IndexOutOfRange/IndexOutOfRange.gltf").string());
+    ADD_FAILURE() << "IndexOutOfRange.gltf was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("uses vertex index 255 (index 0), but it has only 24 vertices"),
+              std::string::npos)
+        << e.what();
+  }
   // Files that cannot give a volume are input errors naming the file.
   for (const char* f : {"PLY/points.ply", "glTF2/IndexOutOfRange/AllIndicesOutOfRange.gltf",
                         "glTF2/MissingBin/BoxTextured.gltf"}) {
