@@ -13,7 +13,6 @@
 
 #include <nlohmann/json.hpp>
 
-#include "bench/uv_sphere.h"
 #include "import/mesh_sampler.h"
 #include "import/scene_loader.h"
 #include "sim/solver.h"

@@ -12,7 +12,6 @@
 #include <memory>
 #include <vector>
 
-#include "bench/uv_sphere.h"
 #include "import/mesh_loader.h"
 #include "import/mesh_sampler.h"
 

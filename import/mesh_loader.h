@@ -57,6 +57,11 @@ MeshLoadResult loadMeshFile(const std::string& path);  // identity placement
 // The repair step on its own (for meshes built in memory).
 void repairMesh(TriangleMesh& mesh, MeshLoadResult& report);
 
+// A UV sphere of nu segments around and nv from pole to pole (2 nu (nv - 1)
+// triangles), outward wound: a closed mesh of chosen size, for tests and
+// benchmarks.
+TriangleMesh uvSphere(const Vec3d& centre, double radius, int nu, int nv);
+
 // Writes `mesh` with assimp's exporter. `format` is an assimp export id:
 // "obj", "stl" (ascii), "stlb" (binary), "ply", "plyb", "gltf2", "glb2",
 // "fbxa". When `node_transform` is given (row-major 4x4, column-vector

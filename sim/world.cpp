@@ -19,8 +19,9 @@ std::string objectKey(const SceneDesc& scene, size_t i) {
 
 Vec3d toVec(const Vec3Desc& a) { return Vec3d(a[0], a[1], a[2]); }
 
+// `shape`: the object's own when null (a mesh sequence passes its frame 0).
 SolidSamples sampleSolid(const SceneDesc& scene, size_t i, const SolidSampler& sampler,
-                         double density) {
+                         double density, const ShapeDesc* shape = nullptr) {
   const ObjectDesc& obj = scene.objects[i];
   if (!sampler)
     throw InputError(objectKey(scene, i), "solid objects need a solid sampler (import/)");
@@ -28,7 +29,7 @@ SolidSamples sampleSolid(const SceneDesc& scene, size_t i, const SolidSampler& s
   const double spacing = obj.sample_spacing > 0.0 ? obj.sample_spacing : 0.5 * scene.domain.dx;
   SolidSamples s;
   try {
-    s = sampler(obj.shape, scene.domain, density, spacing);
+    s = sampler(shape ? *shape : obj.shape, scene.domain, density, spacing);
   } catch (const InputError& e) {
     if (!e.where().empty()) throw;
     throw InputError(objectKey(scene, i) + ".shape", e.what());
@@ -92,16 +93,8 @@ RigidBody buildCollider(const SceneDesc& scene, size_t i, const SolidSampler& sa
   }
   // The samples' mass only weighs the velocity of nodes the collider shares
   // with other solids; any density does.
-  SceneDesc one;
-  const SceneDesc* source = &scene;
-  if (frames) {
-    one.source_path = scene.source_path;
-    one.domain = scene.domain;
-    one.objects.assign(i + 1, obj);
-    one.objects[i].shape = frames->first;
-    source = &one;
-  }
-  SolidSamples s = sampleSolid(*source, i, sampler, 1000.0);
+  const ShapeDesc first = frames ? ShapeDesc(frames->first) : obj.shape;
+  SolidSamples s = sampleSolid(scene, i, sampler, 1000.0, &first);
   const bool animated = obj.animation.has_value() || frames.has_value();
   if (!animated) closeWallFaces(obj.shape, scene.domain, s.samples);
   const Vec3d pivot = volumeCentroid(s.surface);

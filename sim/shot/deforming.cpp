@@ -159,24 +159,6 @@ void DeformingSurface::vertices(double t, std::vector<Vec3d>& x, std::vector<Vec
   }
 }
 
-void DeformingSurface::sample(size_t q, const std::vector<Vec3d>& x, const std::vector<Vec3d>& v,
-                              Vec3d& pos, Vec3d& vel, Vec3d& normal) const {
-  const auto& tr = triangles_[tri_[q]];
-  const Vec3d w = bary_[q].cast<double>(), o = offset_[q].cast<double>();
-  auto place = [&](double eps, Vec3d* n_out) {
-    const Vec3d a = x[tr[0]] + eps * v[tr[0]], b = x[tr[1]] + eps * v[tr[1]],
-                c = x[tr[2]] + eps * v[tr[2]];
-    const Mat3d f = triangleFrame(a, b, c);
-    if (n_out) *n_out = f * normal_[q].cast<double>();
-    return Vec3d(w.x() * a + w.y() * b + w.z() * c + f * o);
-  };
-  // Vertices move linearly within a frame: the velocity is the derivative
-  // of that placement, taken by a small difference in time.
-  const double eps = 1e-4 / fps_;
-  pos = place(0.0, &normal);
-  vel = (place(eps, nullptr) - pos) / eps;
-}
-
 void DeformingSurface::placeAll(double t, const Mat3d& A, const Vec3d& pivot, const Vec3d& centre,
                                 const Vec3d& lin, const Vec3d& omega, std::vector<Vec3f>& pos,
                                 std::vector<Vec3f>& vel, std::vector<Vec3f>& nrm,
@@ -218,14 +200,11 @@ double DeformingSurface::maxSpeed(double t) const {
 }
 
 double DeformingSurface::bindingError(const std::vector<Vec3f>& x) const {
-  std::vector<Vec3d> vx, vv;
-  vertices(0.0, vx, vv);
+  std::vector<Vec3f> pos(tri_.size()), vel(tri_.size()), nrm(tri_.size());
+  placeAll(0.0, Mat3d::Identity(), Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero(), Vec3d::Zero(), pos,
+           vel, nrm, 0);
   double e = 0.0;
-  for (size_t q = 0; q < tri_.size(); ++q) {
-    Vec3d p, v, n;
-    sample(q, vx, vv, p, v, n);
-    e += (p - x[q].cast<double>()).norm();
-  }
+  for (size_t q = 0; q < tri_.size(); ++q) e += double((pos[q] - x[q]).norm());
   return tri_.empty() ? 0.0 : e / double(tri_.size());
 }
 

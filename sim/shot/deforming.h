@@ -29,9 +29,6 @@ class DeformingSurface {
 
   // Vertex positions and velocities at time t (held after the last frame).
   void vertices(double t, std::vector<Vec3d>& x, std::vector<Vec3d>& v) const;
-  // Sample q's position, velocity and normal on the surface of those vertices.
-  void sample(size_t q, const std::vector<Vec3d>& x, const std::vector<Vec3d>& v, Vec3d& pos,
-              Vec3d& vel, Vec3d& normal) const;
   // Every sample at time t, then moved by a rigid motion: world position
   // centre + A (p - pivot), velocity A v + lin + omega x (A (p - pivot)),
   // normal A n; written to pos, vel, nrm from index `first` on. Each
