@@ -343,7 +343,7 @@ FemContacts Solver::elasticContacts(const ElasticSolid& e, double dt) {
     for (size_t i = 0; i < fem.nodes(); ++i) {
       const Vec3d y = fem.x[i] + dt * fem.v[i];
       if ((y - b.state.x).squaredNorm() > double(b.radius) * b.radius) continue;
-      const int q = b.sampleAt(y);
+      const int q = b.supportAt(y, R);
       if (q < 0) continue;
       NodePlane& pl = c.planes.emplace_back();
       pl.node = int(i);

@@ -243,8 +243,9 @@ TEST(ElasticPair, HeadOnCollisionKeepsMomentum) {
 
 // A jelly cube slides at 1 m/s over a stiff elastic slab that rests on a
 // floor of friction 1: with friction 0.3 on both it stops after v^2 / (2 mu g)
-// = 0.170 m, frictionless it keeps its speed. Measured: 0.1648 m (-3.0%);
-// frictionless 0.2000 m in 0.2 s. Before a node barely inside the other
+// = 0.170 m, frictionless it keeps its speed. Measured: 0.1694 m (-0.3%;
+// -3.5% while nodes lying on one of the other's side planes were held by
+// that side); frictionless 0.2000 m in 0.2 s. Before a node barely inside the other
 // solid left through its nearest face, the slab's surface nodes that the
 // cube's leading face swept over were stopped as at a wall: the cube went
 // 0.080 m with friction, and frictionless it stopped and slid back (-0.011 m).
@@ -281,9 +282,77 @@ TEST(ElasticPair, SlidingStopsAtTheCoulombDistance) {
   const double with = elasticSlide(0.3, 0.5), without = elasticSlide(0.0, 0.2);
   std::printf("jelly cube sliding on an elastic slab at 1 m/s: mu 0.3 %.4f m (v^2/(2 mu g) %.4f), "
               "frictionless %.4f m in 0.2 s\n", with, expected, without);
-  EXPECT_NEAR(with, expected, 0.06 * expected);
+  EXPECT_NEAR(with, expected, 0.02 * expected);
   EXPECT_NEAR(without, 0.2, 0.01 * 0.2);
 }
+
+// A jelly cube placed on another on a frictional floor (10 cm cubes, dx =
+// 0.05 m, 5 x 5 nodes on each face that meets the other). Faults this
+// catches, each measured:
+// - Kuhn's split of every voxel along the same diagonal made the mesh
+//   chiral, and each ring of the pair pushed the upper cube along (-1, 0,
+//   -1): 9.2 mm in 2 s explicit, 0.77 mm implicit. The split is mirrored
+//   in alternate voxels now.
+// - The upper's nodes along its bottom edges lie on the lower's side
+//   planes; held by their nearest face, they were held by nothing and sank
+//   down the lower's sides, the faces overlapping by 3.5 mm on average
+//   (8 mm at the edges). Now by the face turned against their own: 0.2 mm.
+// Undamped, the explicit pair bounces (the upper's centre between 0 and 16
+// mm down) and rocks on the lower chaotically, 1-7 mm sideways over 2 s
+// depending on rounding; backward Euler damps the ringing and the upper
+// cube stays put.
+class ElasticStack : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(ElasticStack, UpperCubeStaysOverTheLower) {
+  const bool implicit = GetParam() == "implicit";
+  json j = test::baseScene("elastic_stack_" + GetParam(), {0.4, 0.4, 0.4}, 0.05);
+  j["domain"]["boundary"] = {{"type", "slip"}, {"friction", 0.5}};
+  j["materials"]["jelly"] = jelly();
+  for (int k = 0; k < 2; ++k) {
+    json o = {{"name", k ? "upper" : "lower"}, {"kind", "elastic"}, {"material", "jelly"},
+              {"friction", 0.5},
+              {"shape", box({0.15, 0.1 * k, 0.15}, {0.25, 0.1 * (k + 1), 0.25})}};
+    if (implicit) o["integrator"] = "implicit";
+    j["objects"].push_back(o);
+  }
+  World w = test::loadWorld(test::tempDir("elastic_stack_" + GetParam()), j);
+  Solver solver(w);
+  auto centre = [](const FemBody& b) {
+    Vec3d m = Vec3d::Zero();
+    for (const Vec3d& x : b.x) m += x;
+    return Vec3d(m / double(b.nodes()));
+  };
+  const FemBody& lower = w.elastics[0].fem;
+  const FemBody& upper = w.elastics[1].fem;
+  // The faces that meet: the lower's top nodes and the upper's bottom ones
+  // above them at rest.
+  std::vector<std::pair<size_t, size_t>> face;
+  for (size_t a = 0; a < lower.nodes(); ++a)
+    for (size_t b = 0; b < upper.nodes(); ++b)
+      if (std::abs(lower.mesh.nodes[a].y() - 0.1) < 1e-6 &&
+          (upper.mesh.nodes[b] - lower.mesh.nodes[a]).norm() < 1e-6)
+        face.emplace_back(a, b);
+  ASSERT_EQ(face.size(), 25u);
+  const Vec3d start = centre(upper);
+  double worst = 0.0, overlap = 0.0;
+  for (int k = 1; k <= 40; ++k) {
+    solver.advanceTo(0.05 * k);
+    const Vec3d d = centre(upper) - start;
+    worst = std::max(worst, std::hypot(d.x(), d.z()));
+    // Mean overlap of the faces over the second second.
+    if (k > 20)
+      for (const auto& [a, b] : face) overlap += (lower.x[a].y() - upper.x[b].y()) / (20.0 * 25.0);
+  }
+  std::printf("%s: upper cube's largest sideways offset over 2 s %.3f mm, faces' mean overlap "
+              "%.2f mm\n", GetParam().c_str(), 1e3 * worst, 1e3 * overlap);
+  EXPECT_LT(worst, implicit ? 0.5e-3 : 7.5e-3);
+  EXPECT_LT(std::abs(overlap), 1e-3);
+  // It rests on the lower cube: down by the pair's sag (about 9 mm at rest)
+  // and no more than twice that while ringing, not fallen in.
+  EXPECT_GT(centre(upper).y() - start.y(), -0.02);
+}
+
+INSTANTIATE_TEST_SUITE_P(Integrators, ElasticStack, ::testing::Values("explicit", "implicit"));
 
 }  // namespace
 }  // namespace triad

@@ -174,7 +174,7 @@ TEST(Fem, StiffnessIsTheDerivativeOfTheForces) {
 }
 
 // A stretched, released block vibrates freely: symplectic Euler at its
-// stable step keeps the total energy from growing.
+// stable step keeps the total energy, neither gaining nor losing it.
 TEST(Fem, ExplicitFreeVibrationKeepsEnergy) {
   FemBody b = makeFemBody(tetsFromVoxels(boxCells(Vec3d::Zero(), {6, 3, 3}, 0.01), 0.01),
                           rubber(1e5, 0.3));
@@ -184,19 +184,22 @@ TEST(Fem, ExplicitFreeVibrationKeepsEnergy) {
   const double dt = b.stableDt(0.5);
   std::vector<Vec3d> f;
   // Symplectic Euler's energy oscillates with the step (velocities live
-  // half a step off the positions); what must not happen is growth: the
-  // peaks late in the run are those of the start.
-  double early = 0.0, late = 0.0, ke_max = 0.0;
+  // half a step off the positions): its peaks wander by 2% as the modes
+  // beat, its mean over a thousand steps by 0.3% (16000 steps measured).
+  // What must not happen is drift: the mean late in the run is the mean
+  // of the start.
+  double early = 0.0, late = 0.0, peak = 0.0, ke_max = 0.0;
   for (int s = 0; s < 4000; ++s) {
     b.stepExplicit(dt, Vec3d::Zero(), f);
     const double ke = b.kineticEnergy(), e = ke + b.elasticEnergy();
-    if (s < 1000) early = std::max(early, e);
-    if (s >= 3000) late = std::max(late, e);
+    if (s < 1000) early += e / 1000, peak = std::max(peak, e);
+    if (s >= 3000) late += e / 1000;
     ke_max = std::max(ke_max, ke);
   }
-  EXPECT_GT(ke_max, 0.3 * e0);     // it does vibrate
-  EXPECT_LT(late, 1.01 * early);   // and gains no energy over 4000 steps
-  EXPECT_LT(early, 1.2 * e0);      // the oscillation of the measured energy is bounded
+  EXPECT_GT(ke_max, 0.3 * e0);      // it does vibrate
+  EXPECT_LT(late, 1.005 * early);   // gains no energy over 4000 steps
+  EXPECT_GT(late, 0.995 * early);   // and loses none
+  EXPECT_LT(peak, 1.2 * e0);        // the oscillation of the measured energy is bounded
 }
 
 // A column H tall on nodes pinned at its base (nu = 0: a 1D bar), which
@@ -283,14 +286,28 @@ TEST(Fem, ImplicitColumnSettlesToStaticSag) {
   EXPECT_NEAR(topSag(b), kColumnSag, 0.05 * kColumnSag);
 }
 
-// The column's top released under gravity, stepped by `step` until `t_end`:
-// the sag at every step.
+// The column's first axial mode, sin(pi y / 2H): its share of the sag,
+// the nodes' displacements weighted by mass and the mode. The top alone
+// carries the higher modes too, which shift its extrema by up to 1.5% of
+// a period from one to the next in an undamped run.
+double firstModeSag(const FemBody& b) {
+  double num = 0.0, den = 0.0;
+  for (size_t i = 0; i < b.x.size(); ++i) {
+    const double phi = std::sin(M_PI * b.mesh.nodes[i].y() / (2 * kColumnH));
+    num += b.mass[i] * phi * (b.mesh.nodes[i].y() - b.x[i].y());
+    den += b.mass[i] * phi * phi;
+  }
+  return num / den;
+}
+
+// The column released under gravity, stepped by `step` until `t_end`: its
+// first mode's sag at every step.
 template <class Step>
-std::vector<double> topHistory(FemBody& b, double dt, double t_end, Step step) {
+std::vector<double> modeHistory(FemBody& b, double dt, double t_end, Step step) {
   std::vector<double> u;
   for (double t = 0; t < t_end; t += dt) {
     step(b, dt);
-    u.push_back(topSag(b));
+    u.push_back(firstModeSag(b));
   }
   return u;
 }
@@ -316,15 +333,17 @@ std::vector<std::pair<double, double>> extrema(const std::vector<double>& u, dou
 // (its error, (w h)^2 / 24, is 2.6e-4 here); at h = T / 40 the implicit run
 // must then ring at atan(w h) / h (period 0.8% longer) and lose 39% of its
 // amplitude per period, the first mode alone once the higher ones are damped.
-// Measured: period 1.0091 T against 1.0081, amplitude ratio per period 0.610
-// against 0.614; the explicit period 0.05659 s, the 1D bar's 4 H / c 0.05657. A wrong stiffness changes the period; a solver that is not
-// backward Euler (or adds damping) the decay.
+// Both runs follow the first mode's share of the displacement, which the
+// higher modes do not shift. Measured: period 1.0082 T against 1.0081,
+// amplitude ratio per period 0.612 against 0.614; the explicit period
+// 0.05664 s, the 1D bar's 4 H / c 0.05657. A wrong stiffness changes the
+// period; a solver that is not backward Euler (or adds damping) the decay.
 TEST(Fem, ImplicitVibrationRingsAndDecaysAsBackwardEuler) {
   const Vec3d g(0, -kG, 0);
   FemBody ex = pinnedColumn();
   const double dt_ex = ex.stableDt(0.5);
   std::vector<Vec3d> f, v;
-  const std::vector<double> u_ex = topHistory(ex, dt_ex, 0.25, [&](FemBody& b, double h) {
+  const std::vector<double> u_ex = modeHistory(ex, dt_ex, 0.25, [&](FemBody& b, double h) {
     b.stepExplicit(h, g, f);
   });
   const auto e_ex = extrema(u_ex, dt_ex);
@@ -337,7 +356,7 @@ TEST(Fem, ImplicitVibrationRingsAndDecaysAsBackwardEuler) {
 
   FemBody im = pinnedColumn();
   const double h = period / 40;
-  const std::vector<double> u_im = topHistory(im, h, 3 * period, [&](FemBody& b, double step) {
+  const std::vector<double> u_im = modeHistory(im, h, 3 * period, [&](FemBody& b, double step) {
     b.implicitVelocities(step, g, v);
     b.v = v;
     for (size_t i = 0; i < b.nodes(); ++i) b.x[i] += step * b.v[i];
@@ -354,7 +373,7 @@ TEST(Fem, ImplicitVibrationRingsAndDecaysAsBackwardEuler) {
   std::printf("implicit: period %.5f s (backward Euler %.5f), amplitude ratio per period %.3f "
               "(backward Euler %.3f)\n",
               period_im, expect_period, amp2 / amp1, expect_ratio);
-  EXPECT_NEAR(period_im / period, expect_period / period, 0.004);
+  EXPECT_NEAR(period_im / period, expect_period / period, 0.002);
   EXPECT_NEAR(amp2 / amp1, expect_ratio, 0.04);
 }
 

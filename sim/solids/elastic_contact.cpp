@@ -1,6 +1,7 @@
 #include "sim/solids/elastic_contact.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <unordered_map>
@@ -60,25 +61,29 @@ struct Face {
   int axis = 0, side = 1;
 };
 
-// Distance from a rest point inside b's voxels to their boundary, along the
-// axes, and the boundary face reached.
-double restDepth(const ElasticSolid& b, const Vec3d& rest, Face& face) {
+// Distances from a rest point inside b's voxels to their boundary along
+// each axis both ways, and the boundary faces reached, nearest first.
+struct FaceDistance {
+  double dist = 0.0;
+  Face face;
+};
+std::array<FaceDistance, 6> restFaces(const ElasticSolid& b, const Vec3d& rest) {
   constexpr int kMaxWalk = 64;
   const double h = b.fem.mesh.spacing;
   const Eigen::Vector3i c = b.cellIndex(rest);
   const Vec3d centre = b.fem.mesh.cells[0] + h * c.cast<double>();
-  double best = 1e300;
+  std::array<FaceDistance, 6> out;
   for (int d = 0; d < 3; ++d)
     for (int s = -1; s <= 1; s += 2) {
       int k = 1;
       while (k < kMaxWalk && b.hasCell(c + s * k * Eigen::Vector3i::Unit(d))) ++k;
-      const double dist = s * (centre[d] + s * (0.5 * h + (k - 1) * h) - rest[d]);
-      if (dist < best) {
-        best = dist;
-        face = {c + s * (k - 1) * Eigen::Vector3i::Unit(d), d, s};
-      }
+      FaceDistance& f = out[size_t(2 * d + (s + 1) / 2)];
+      f.dist = s * (centre[d] + s * (0.5 * h + (k - 1) * h) - rest[d]);
+      f.face = {c + s * (k - 1) * Eigen::Vector3i::Unit(d), d, s};
     }
-  return best;
+  std::stable_sort(out.begin(), out.end(),
+                   [](const FaceDistance& p, const FaceDistance& q) { return p.dist < q.dist; });
+  return out;
 }
 
 // The face deformed: the plane through its four corner nodes (centroid and
@@ -140,6 +145,12 @@ double entryDepth(const ElasticSolid& b, const Vec3d& rest, const Vec3d& back, F
 // How deep, in sample spacings, a point must be before the face it crossed
 // in the step, rather than its nearest face, is the one it leaves through.
 constexpr double kShallow = 0.25;
+// How much more (in the cosine with the node's own normal) another shallow
+// face must be turned against the node than its nearest face to hold it.
+constexpr double kTurned = 0.5;
+// How near, in sample spacings, the nearest face must be for a point to lie
+// on its plane (and another face to be the one that holds it).
+constexpr double kOnPlane = 0.05;
 
 double inverseMass(const FemBody& b, int node) {
   return b.pinned[size_t(node)] ? 0.0 : 1.0 / b.mass[size_t(node)];
@@ -172,13 +183,15 @@ struct Penetration {
 };
 
 // Whether point x (moving at v over the step) ends inside solid b. The
-// face it is pushed out through is the one it crossed in this step
-// (walking back along its motion relative to b, in rest space), which at
-// an edge need not be the nearest one, else the nearest one. Depth and
-// normal are those of the face deformed (the plane of its four nodes), so
-// that the split of the voxels into tetrahedra does not tilt them.
+// face it is pushed out through is, deep inside, the one it crossed in
+// this step (walking back along its motion relative to b, in rest space),
+// which at an edge need not be the nearest one; near the surface the
+// nearest one, or the shallow face turned against `own` (the outward
+// normal of the surface the point belongs to; zero for a particle). Depth
+// and normal are those of the face deformed (the plane of its four nodes),
+// so that the split of the voxels into tetrahedra does not tilt them.
 bool findPenetration(const ElasticSolid& b, const EndOfStep& end, const Vec3d& x, const Vec3d& v,
-                     double dt, Penetration& out) {
+                     const Vec3d& own, double dt, Penetration& out) {
   const FemBody& fb = b.fem;
   if (!end.box.contains(x)) return false;
   const std::vector<int>* candidates = end.bins.at(x);
@@ -193,16 +206,33 @@ bool findPenetration(const ElasticSolid& b, const EndOfStep& end, const Vec3d& x
       vb += w[size_t(k)] * fb.v[size_t(n[k])];
     }
     const Mat3d F = edges(end.y, n) * fb.dm_inv[size_t(t)];
-    Face face;
-    const double nearest = restDepth(b, rest, face);
+    const std::array<FaceDistance, 6> faces = restFaces(b, rest);
+    Face face = faces[0].face;
+    const double nearest = faces[0].dist, h = fb.mesh.spacing;
     if (nearest <= 0.0) return false;
+    const Vec3d rel = F.inverse() * (v - vb);  // the point's motion relative to b, at rest
     // A point barely inside leaves through its nearest face: a node of a
     // surface sliding along this one, which the other's leading face sweeps
-    // over, is a bump to ride over, not a wall to stop at.
+    // over, is a bump to ride over, not a wall to stop at. But a node of a
+    // solid's surface (outward normal `own`) whose face lies on this one
+    // is held by the face turned against its own, when that face is also
+    // shallow: the nodes along the bottom edge of a cube stacked face to
+    // face on another lie on the lower's side planes, and through those,
+    // nearest at a depth of nothing, nothing held them up.
     Face entry;
-    if (nearest > kShallow * fb.mesh.spacing &&
-        entryDepth(b, rest, -dt * (F.inverse() * (v - vb)), entry) >= 0.0)
-      face = entry;
+    if (nearest > kShallow * h) {
+      if (entryDepth(b, rest, -dt * rel, entry) >= 0.0) face = entry;
+    } else if (nearest < kOnPlane * h && own.squaredNorm() > 0.0) {
+      const Mat3d G = F.inverse().transpose();
+      auto facing = [&](const Face& f) {
+        return own.dot((G * (f.side * Vec3d::Unit(f.axis))).normalized());
+      };
+      double best = facing(face);
+      for (size_t k = 1; k < faces.size() && faces[k].dist <= kShallow * h; ++k) {
+        const double c = facing(faces[k].face);
+        if (c < best - kTurned) best = c, face = faces[k].face;
+      }
+    }
     Vec3d centroid, normal;
     if (!deformedFace(b, end.y, face, centroid, normal)) return false;
     const double depth = normal.dot(x - centroid);
@@ -226,7 +256,8 @@ size_t pushOut(ElasticSolid& a, ElasticSolid& b, double dt) {
   for (size_t i = 0; i < fa.nodes(); ++i) {
     const double inv_a = inverseMass(fa, int(i));
     Penetration pen;
-    if (inv_a == 0.0 || !findPenetration(b, end, fa.x[i] + dt * fa.v[i], fa.v[i], dt, pen))
+    if (inv_a == 0.0 ||
+        !findPenetration(b, end, fa.x[i] + dt * fa.v[i], fa.v[i], a.normal(i), dt, pen))
       continue;
     const auto& n = fb.mesh.tets[size_t(pen.tet)];
     // Separate the node and b's material point under it by the depth
@@ -264,7 +295,7 @@ size_t pushParticlesOut(ElasticSolid& b, std::vector<ParticleSet>& sets, double 
     for (size_t p = 0; p < set.size(); ++p) {
       const Vec3d x = set.x[p].cast<double>(), v = set.v[p].cast<double>();
       Penetration pen;
-      if (!findPenetration(b, end, x, v, dt, pen)) continue;
+      if (!findPenetration(b, end, x, v, Vec3d::Zero(), dt, pen)) continue;
       // Onto the face; the approach velocity goes to the solid's nodes
       // under the particle, by barycentric weight.
       set.x[p] = (x - pen.depth * pen.normal).cast<float>();

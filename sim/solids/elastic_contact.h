@@ -1,11 +1,14 @@
 #pragma once
-// Contact between elastic solids (issue 5): a node of one solid that would
-// end the step inside another's deformed tetrahedra is stopped at that
-// solid's boundary. The node's barycentric position in the containing
-// tetrahedron maps it to a rest point; the nearest face of the other
-// solid's voxels along the axes gives the depth and the rest normal (the
-// voxels are the solid: its tetrahedra fill them), and the element's
-// deformation turns them (F^-T N). A cell's own sample normal would not do:
+// Contact between elastic solids: a node of one solid that would end the
+// step inside another's deformed tetrahedra is stopped at that solid's
+// boundary. The node's barycentric position in the containing tetrahedron
+// maps it to a rest point; a face of the other solid's voxels gives the
+// depth and the rest normal (the voxels are the solid: its tetrahedra fill
+// them), and the element's deformation turns them (F^-T N). The face is
+// the nearest one along the axes, unless another face within a quarter of
+// a spacing is turned against the node's own surface normal: along an edge
+// of two cubes stacked face to face, the upper's nodes lie on the lower's
+// side planes, and the nearest face would hold them with no depth at all. A cell's own sample normal would not do:
 // at edges and corners it points to whichever face was nearest the cell's
 // centre, not the point's. The impulse stops the approach and removes the
 // rest of the penetration at most a tenth of a sample spacing per step; it

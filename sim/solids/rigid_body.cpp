@@ -3,6 +3,7 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace triad {
 
@@ -61,6 +62,30 @@ int RigidBody::sampleAt(const Vec3d& p) const {
     if (i[d] < 0 || i[d] >= cell_dims[d]) return -1;
   }
   return cells[(size_t(i.x()) * cell_dims.y() + i.y()) * cell_dims.z() + i.z()];
+}
+
+int RigidBody::supportAt(const Vec3d& p, const Mat3d& R) const {
+  if ((p - state.x).squaredNorm() > double(radius) * radius) return -1;
+  const Vec3d body = R.transpose() * (p - state.x);
+  const Vec3d rest = principal * (state.q_principal.conjugate() * (p - state.x));
+  const Vec3d c = (rest - lattice_origin) / double(spacing);
+  const Eigen::Vector3i mid(int(std::lround(c.x())), int(std::lround(c.y())),
+                            int(std::lround(c.z())));
+  int best = -1;
+  double best_d = -std::numeric_limits<double>::infinity();
+  for (int i = mid.x() - 1; i <= mid.x() + 1; ++i)
+    for (int j = mid.y() - 1; j <= mid.y() + 1; ++j)
+      for (int k = mid.z() - 1; k <= mid.z() + 1; ++k) {
+        if (i < 0 || j < 0 || k < 0 || i >= cell_dims.x() || j >= cell_dims.y() ||
+            k >= cell_dims.z())
+          continue;
+        const int q = cells[(size_t(i) * cell_dims.y() + j) * cell_dims.z() + k];
+        if (q < 0) continue;
+        const double d = double(phi[size_t(q)]) +
+                         n[size_t(q)].cast<double>().dot(body - r[size_t(q)].cast<double>());
+        if (d > best_d) best_d = d, best = q;
+      }
+  return best;
 }
 
 bool RigidBody::distanceAt(const Vec3d& p, const Mat3d& R, double& phi_out, Vec3d& n_out) const {

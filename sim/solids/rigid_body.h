@@ -95,6 +95,12 @@ struct RigidBody {
   // normal, with R = rotation(). False outside the bounding sphere or the
   // sample lattice (outside, or deeper than the kept samples).
   bool distanceAt(const Vec3d& p, const Mat3d& R, double& phi_out, Vec3d& n_out) const;
+  // The sample whose plane (its distance carried along its normal) lies
+  // furthest out at world point p, among those of the 27 lattice cells
+  // around p's, or -1: the body's surface as the envelope of its samples'
+  // planes, which moves continuously with p where the nearest sample's
+  // plane jumps from one sample to the next (a ball sampled 4 across).
+  int supportAt(const Vec3d& p, const Mat3d& R) const;
 
   // An animated body: pose, velocity and spin at time t; a deforming one's
   // surface too.

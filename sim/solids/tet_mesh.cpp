@@ -45,12 +45,18 @@ TetMesh tetsFromVoxels(const std::vector<Vec3d>& centres, double h) {
     const Vec3d rel = (c - origin) / h - Vec3d::Constant(0.5);
     const Eigen::Vector3i base(int(std::lround(rel.x())), int(std::lround(rel.y())),
                                int(std::lround(rel.z())));
+    // Mirrored along each axis whose index is odd: neighbours share their
+    // faces' diagonals (the mesh stays conforming), and the split's
+    // diagonal direction alternates instead of running one way.
+    Eigen::Vector3i start = base, step = Eigen::Vector3i::Ones();
+    for (int a = 0; a < 3; ++a)
+      if (base[a] & 1) start[a] += 1, step[a] = -1;
     for (const auto& order : kOrders) {
-      Eigen::Vector3i p = base;
+      Eigen::Vector3i p = start;
       std::array<int, 4> tet;
       tet[0] = corner(p);
       for (int k = 0; k < 3; ++k) {
-        p[order[k]] += 1;
+        p[order[k]] += step[order[k]];
         tet[k + 1] = corner(p);
       }
       m.tets.push_back(tet);
