@@ -21,10 +21,12 @@ PACKAGES=(
   libgtest-dev libopenvdb-tools assimp-testmodels
   # scripts/fuzz.sh: libFuzzer with clang's sanitizers
   clang libclang-rt-14-dev
+  # the suite's `validation` tests read the caches with numpy
+  python3 python3-numpy
 )
 if [ "${1:-}" = "--validation" ]; then
-  # bench/validation/: runs the scenes, reads the caches, plots error against cost
-  PACKAGES+=(python3 python3-numpy python3-matplotlib)
+  # bench/validation/: the whole sweep also plots error against cost
+  PACKAGES+=(python3-matplotlib)
 fi
 
 missing=()

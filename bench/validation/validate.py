@@ -12,6 +12,10 @@ Usage (from the repository root; bench/validation/run.sh wraps it):
 --check-only  only the presets stage: every case at --quality draft, preview and
               final; the analytic cases must pass their tolerance at final
 --no-check    the sweep only
+--suite       the regression guard ctest runs (label `validation`): each case
+              once, at the preset where it is documented to pass (SUITE),
+              against its tolerance; writes no results, exits 1 on a miss
+--triad PATH  the triad executable (default build/app/triad)
 
 Needs Debian's python3 with numpy and matplotlib (apt: python3-numpy,
 python3-matplotlib) and a built build/app/triad.
@@ -283,6 +287,18 @@ CASES = {
 }
 
 BASE = dict(ppc=8, cfl=0.4, transfer="apic")
+
+# The regression guard (--suite): each case at `preview` (the scene's own
+# dx), 9-12 s apiece on 2 threads, against its tolerance, so that a change
+# that breaks a documented figure fails the suite.
+SUITE = {"free_fall": "preview", "incline": "preview", "bar": "preview",
+         "dam_break": "preview", "granular_collapse": "preview", "archimedes": "preview"}
+# Known misses, pinned: the measured error and how far it may move before the
+# guard fails, so that a fix or a worse miss is seen and this is updated.
+# Archimedes at preview: the dropped slab is still sinking when the window
+# (1-1.6 s) closes, 2-3 mm/s, and goes on past Archimedes' draft (0.0615 m
+# at 8 s against 0.050) while it tilts 8 degrees and yaws (bench/RESULTS.md).
+KNOWN_MISS = {"archimedes": (0.1797, 0.02)}
 
 
 def variants(case, quick):
@@ -559,7 +575,35 @@ def load_rows(path):
     return rows
 
 
+def run_suite(cases, work_root, threads):
+    """Each case once at its SUITE preset: pass or miss against its tolerance."""
+    misses = 0
+    for case in cases:
+        q = SUITE[case]
+        work = os.path.join(work_root, case, "suite_" + q)
+        r = run_one(case, load_scene(case), work, threads, ["--quality", q])
+        tol = CASES[case]["tol"]
+        if case in KNOWN_MISS:
+            pinned, band = KNOWN_MISS[case]
+            ok = math.isfinite(r["error"]) and abs(r["error"] - pinned) <= band
+            verdict = ("known miss, as pinned (%.2f%% +- %.0f%%)" if ok else
+                       "CHANGED from the pinned known miss (%.2f%% +- %.0f%%): update KNOWN_MISS") % (
+                           100 * pinned, 100 * band)
+        else:
+            ok = math.isfinite(r["error"]) and r["error"] <= tol
+            verdict = "pass" if ok else "MISS"
+        misses += 0 if ok else 1
+        kind = "analytic" if CASES[case]["analytic"] else "experiment"
+        print("%s --quality %s: %s %.6g, reference (%s) %.6g, error %.2f%% (tolerance %.0f%%): %s"
+              "%s" % (case, q, r["quantity"], r["measured"], kind, r["reference"],
+                      100 * r["error"], 100 * tol, verdict,
+                      "; " + r["note"] if r["note"] else ""), flush=True)
+        shutil.rmtree(work, ignore_errors=True)
+    return 1 if misses else 0
+
+
 def main():
+    global TRIAD
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--threads", type=int, default=2)
@@ -568,13 +612,18 @@ def main():
     ap.add_argument("--no-check", action="store_true")
     ap.add_argument("--results", default=os.path.join(HERE, "results"))
     ap.add_argument("--work", default=os.path.join(ROOT, "build", "validation"))
+    ap.add_argument("--suite", action="store_true")
+    ap.add_argument("--triad", default=TRIAD)
     args = ap.parse_args()
+    TRIAD = os.path.abspath(args.triad)
     cases = [c for c in args.cases.split(",") if c]
     for c in cases:
         if c not in CASES:
             sys.exit("unknown case %r; known: %s" % (c, ", ".join(CASES)))
     if not os.path.exists(TRIAD):
         sys.exit("%s not found: build it first (scripts/build.sh release triad)" % TRIAD)
+    if args.suite:
+        return run_suite(cases, args.work, args.threads)
     os.makedirs(args.results, exist_ok=True)
     command = "bench/validation/run.sh" + (" --quick" if args.quick else "") + \
         ("" if args.threads == 2 else " --threads %d" % args.threads)
