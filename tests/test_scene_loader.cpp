@@ -7,12 +7,16 @@
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <map>
+#include <vector>
 #include <initializer_list>
 #include <string>
 
 #include <nlohmann/json.hpp>
 
 #include "import/param_dict.h"
+#include "import/quality.h"
 #include "import/scene_loader.h"
 #include "sim/errors.h"
 
@@ -292,6 +296,161 @@ TEST_F(SceneLoaderTest, FillsModelDefaultsAndReadsExtensions) {
   EXPECT_EQ(s.solver.transfer, TransferScheme::Flip);
   EXPECT_EQ(s.solver.flip_ratio, 0.5);
   EXPECT_EQ(s.solver.coupling, CouplingScheme::SingleGrid);
+}
+
+// The defaults scenes/README.md documents, by section ("## `solver`"; the
+// rows before the first such heading are "Top level"): a table row whose
+// key is in backticks and whose third column is a JSON literal in backticks.
+std::map<std::string, std::map<std::string, json>> documentedDefaults() {
+  std::ifstream in(std::string(TRIAD_SOURCE_DIR) + "/scenes/README.md");
+  std::map<std::string, std::map<std::string, json>> doc;
+  std::string line, section = "Top level";
+  auto strip = [](std::string t) {
+    const size_t a = t.find_first_not_of(' '), b = t.find_last_not_of(' ');
+    return a == std::string::npos ? std::string() : t.substr(a, b - a + 1);
+  };
+  auto quoted = [](const std::string& t) {
+    return t.size() >= 2 && t.front() == '`' && t.back() == '`';
+  };
+  while (std::getline(in, line)) {
+    if (line.rfind("## `", 0) == 0) {
+      section = line.substr(4, line.find('`', 4) - 4);
+      continue;
+    }
+    if (line.rfind("| `", 0) != 0) continue;
+    std::vector<std::string> cells;
+    for (size_t at = 1, next; (next = line.find('|', at)) != std::string::npos; at = next + 1)
+      cells.push_back(strip(line.substr(at, next - at)));
+    if (cells.size() < 4 || !quoted(cells[0]) || !quoted(cells[2])) continue;
+    const json value = json::parse(cells[2].substr(1, cells[2].size() - 2), nullptr, false);
+    if (!value.is_discarded()) doc[section][cells[0].substr(1, cells[0].size() - 2)] = value;
+  }
+  return doc;
+}
+
+// What the reference says is what the loader does: for every default it
+// documents, a scene without the key and one with the documented value read
+// the same. The old defaults test compared the loader with its own structs,
+// so a default changed in the code (and the struct) passed with the README
+// saying otherwise.
+TEST_F(SceneLoaderTest, DefaultsAreTheDocumentedOnes) {
+  const auto doc = documentedDefaults();
+  json base = minimalScene();
+  base["materials"]["snow"] = {
+      {"model", "snow"}, {"density", 400}, {"youngs_modulus", 1.4e5}, {"poisson_ratio", 0.2}};
+  base["materials"]["sand"] = {
+      {"model", "drucker_prager"}, {"density", 1600}, {"youngs_modulus", 3.5e5},
+      {"poisson_ratio", 0.3}};
+  base["materials"]["water"] = {{"model", "water"}, {"density", 1000}, {"bulk_modulus", 2e5}};
+  using Get = std::function<json(const SceneDesc&)>;
+  auto mat = [](int k) { return [k](const SceneDesc& s) { return s.materials[size_t(k)]; }; };
+  struct Case {
+    std::string section, key, pointer;
+    Get get;
+  };
+  const std::vector<Case> cases = {
+      {"Top level", "gravity", "/gravity", [](const SceneDesc& s) { return json(s.gravity); }},
+      {"frames", "count", "/frames/count", [](const SceneDesc& s) { return json(s.frames.count); }},
+      {"frames", "fps", "/frames/fps", [](const SceneDesc& s) { return json(s.frames.fps); }},
+      {"domain", "type", "/domain/boundary/type",
+       [](const SceneDesc& s) { return json(int(s.domain.boundary.type)); }},
+      {"domain", "friction", "/domain/boundary/friction",
+       [](const SceneDesc& s) { return json(s.domain.boundary.friction); }},
+      {"solver", "cfl", "/solver/cfl", [](const SceneDesc& s) { return json(s.solver.cfl); }},
+      {"solver", "max_dt", "/solver/max_dt", [](const SceneDesc& s) { return json(s.solver.max_dt); }},
+      {"solver", "particles_per_cell", "/solver/particles_per_cell",
+       [](const SceneDesc& s) { return json(s.solver.particles_per_cell); }},
+      {"solver", "transfer", "/solver/transfer",
+       [](const SceneDesc& s) { return json(int(s.solver.transfer)); }},
+      {"solver", "coupling", "/solver/coupling",
+       [](const SceneDesc& s) { return json(int(s.solver.coupling)); }},
+      {"solver", "contact_velocity", "/solver/contact_velocity",
+       [](const SceneDesc& s) { return json(int(s.solver.contact_velocity)); }},
+      {"solver", "solid_readback", "/solver/solid_readback",
+       [](const SceneDesc& s) { return json(int(s.solver.solid_readback)); }},
+      {"solver", "rigid_node_mass", "/solver/rigid_node_mass",
+       [](const SceneDesc& s) { return json(int(s.solver.rigid_node_mass)); }},
+      {"solver", "contact_reach", "/solver/contact_reach",
+       [](const SceneDesc& s) { return json(s.solver.contact_reach); }},
+      {"solver", "contact_normal", "/solver/contact_normal",
+       [](const SceneDesc& s) { return json(int(s.solver.contact_normal)); }},
+      {"solver", "coupling_iterations", "/solver/coupling_iterations",
+       [](const SceneDesc& s) { return json(s.solver.coupling_iterations); }},
+      {"solver", "contact_iterations", "/solver/contact_iterations",
+       [](const SceneDesc& s) { return json(s.solver.contact_iterations); }},
+      {"materials", "critical_compression", "/materials/snow/critical_compression",
+       [=](const SceneDesc& s) { return json(mat(2)(s).critical_compression); }},
+      {"materials", "critical_stretch", "/materials/snow/critical_stretch",
+       [=](const SceneDesc& s) { return json(mat(2)(s).critical_stretch); }},
+      {"materials", "hardening", "/materials/snow/hardening",
+       [=](const SceneDesc& s) { return json(mat(2)(s).hardening); }},
+      {"materials", "friction_angle_deg", "/materials/sand/friction_angle_deg",
+       [=](const SceneDesc& s) { return json(mat(1)(s).friction_angle_deg); }},
+      {"materials", "cohesion", "/materials/sand/cohesion",
+       [=](const SceneDesc& s) { return json(mat(1)(s).cohesion); }},
+      {"materials", "viscosity", "/materials/water/viscosity",
+       [=](const SceneDesc& s) { return json(mat(3)(s).viscosity); }},
+      {"materials", "gamma", "/materials/water/gamma",
+       [=](const SceneDesc& s) { return json(mat(3)(s).gamma); }},
+      {"output", "ply", "/output/ply", [](const SceneDesc& s) { return json(s.output.ply); }},
+      {"output", "vdb", "/output/vdb", [](const SceneDesc& s) { return json(s.output.vdb); }},
+      {"output", "png", "/output/png", [](const SceneDesc& s) { return json(s.output.png); }},
+      {"output", "vdb_surface", "/output/vdb_surface",
+       [](const SceneDesc& s) { return json(s.output.vdb_surface); }},
+      {"output", "checkpoints", "/output/checkpoints",
+       [](const SceneDesc& s) { return json(s.output.checkpoints); }},
+      {"render", "resolution", "/render/resolution",
+       [](const SceneDesc& s) { return json(s.render.resolution); }},
+  };
+  const SceneDesc without = load(base);
+  for (const Case& c : cases) {
+    const auto sec = doc.find(c.section);
+    ASSERT_NE(sec, doc.end()) << "scenes/README.md has no section " << c.section;
+    const auto it = sec->second.find(c.key);
+    ASSERT_NE(it, sec->second.end())
+        << "scenes/README.md documents no default for " << c.section << " / " << c.key;
+    const SceneDesc with_doc = load(with(base, c.pointer, it->second));
+    EXPECT_EQ(c.get(without), c.get(with_doc))
+        << c.pointer << ": the loader's default is not the documented " << it->second.dump();
+  }
+  // flip_ratio is allowed only with transfer flip.
+  const json flip = with(base, "/solver/transfer", "flip");
+  const json documented = doc.at("solver").at("flip_ratio");
+  EXPECT_EQ(load(flip).solver.flip_ratio,
+            load(with(flip, "/solver/flip_ratio", documented)).solver.flip_ratio);
+}
+
+// The quality presets are the ones scenes/README.md's table documents: dx
+// "2 ×", "as written" or "½ ×" the scene's, particles per cell, cfl and
+// transfer, for every preset the code has and no other.
+TEST(QualityDocs, PresetsAreTheDocumentedOnes) {
+  std::ifstream in(std::string(TRIAD_SOURCE_DIR) + "/scenes/README.md");
+  std::string line;
+  size_t rows = 0;
+  while (std::getline(in, line)) {
+    std::vector<std::string> cells;
+    for (size_t at = 1, next; (next = line.find('|', at)) != std::string::npos; at = next + 1) {
+      std::string c = line.substr(at, next - at);
+      c.erase(0, c.find_first_not_of(' '));
+      c.erase(c.find_last_not_of(' ') + 1);
+      cells.push_back(c);
+    }
+    if (cells.size() != 5 || cells[0].size() < 3 || cells[0].front() != '`') continue;
+    const std::string name = cells[0].substr(1, cells[0].size() - 2);
+    const auto p = findQualityPreset(name);
+    if (!p && name != "draft" && name != "preview" && name != "final") continue;
+    ASSERT_TRUE(p.has_value()) << "documented preset " << name << " is not in the code";
+    ++rows;
+    const double factor = cells[1].rfind("2 ×", 0) == 0    ? 2.0
+                          : cells[1].rfind("½ ×", 0) == 0  ? 0.5
+                          : cells[1] == "as written"       ? 1.0
+                                                           : -1.0;
+    EXPECT_EQ(p->dx_factor, factor) << name << ": documented " << cells[1];
+    EXPECT_EQ(p->particles_per_cell, std::stoi(cells[2])) << name;
+    EXPECT_EQ(p->cfl, std::stod(cells[3])) << name;
+    EXPECT_EQ("`" + transferName(p->transfer) + "`", cells[4]) << name;
+  }
+  EXPECT_EQ(rows, qualityPresets().size()) << "every preset documented, once";
 }
 
 TEST_F(SceneLoaderTest, AcceptsIntegersWrittenWithAZeroFraction) {
