@@ -1,6 +1,7 @@
 // A jelly cube resting on another on a frictional floor, measured:
 //   study_stack [--dx M] [--time S] [--implicit] [--friction MU] [--E PA]
 //               [--model fixed_corotated|neo_hookean] [--every FRAMES]
+//               [--damping ETA]
 // Two 10 cm cubes (rho 1000, nu 0.3), the upper placed on the lower, no MPM
 // material. Prints, every 0.05 s, the upper cube's sideways drift (mean of
 // its nodes against the start), its sink, the overlap of the two faces
@@ -39,7 +40,7 @@ Vec3d mean(const std::vector<Vec3d>& x) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  double dx = 0.05, time = 2.0, mu = 0.5, E = 2e4;
+  double dx = 0.05, time = 2.0, mu = 0.5, E = 2e4, damping = 0.0;
   bool implicit = false;
   std::string model = "fixed_corotated";
   int every = 1;
@@ -58,6 +59,8 @@ int main(int argc, char** argv) {
       E = std::stod(next());
     else if (a == "--model")
       model = next();
+    else if (a == "--damping")
+      damping = std::stod(next());
     else if (a == "--every")
       every = std::stoi(next());
     else {
@@ -85,6 +88,7 @@ int main(int argc, char** argv) {
               {"friction", mu},
               {"shape", box({0.15, 0.1 * k, 0.15}, {0.25, 0.1 * (k + 1), 0.25})}};
     if (implicit) o["integrator"] = "implicit";
+    if (damping > 0) o["damping"] = damping;
     j["objects"].push_back(o);
   }
   const auto dir = std::filesystem::temp_directory_path() / "triad_study_stack";

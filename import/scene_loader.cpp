@@ -352,7 +352,7 @@ std::string objectKeyHint(ObjectKind kind, const std::string& key) {
   if (key == "density")
     return "only rigid objects take a density; others get it from their material";
   if (key == "fixed" || key == "angular_velocity") return "only rigid objects take it";
-  if (key == "integrator") return "only elastic objects take it";
+  if (key == "integrator" || key == "damping") return "only elastic objects take it";
   if (key == "sample_spacing" && kind == ObjectKind::Mpm)
     return "only rigid, elastic and collider objects take it; MPM objects use "
            "solver.particles_per_cell";
@@ -480,6 +480,10 @@ ObjectDesc parseObject(const ParamDict& d, const std::vector<MaterialDesc>& mate
       }
       o.friction = d.getDouble("friction", o.friction, Range::nonNegative());
       o.integrator = d.getEnum("integrator", o.integrator, kIntegrators);
+      o.damping = d.getDouble("damping", o.damping, Range::nonNegative());
+      if (o.damping > 0.0 && o.integrator == ElasticIntegrator::Implicit)
+        d.fail("damping", "expected 0 with \"integrator\": \"implicit\" (backward Euler "
+                          "damps by itself; damping is for the explicit integrator)");
       o.sample_spacing = parseSampleSpacing(d, domain);
       break;
     }

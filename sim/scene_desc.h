@@ -154,6 +154,7 @@ struct ObjectDesc {
   bool fixed = false;                  // rigid only
   double friction = 0.0;               // against MPM material (rigid, elastic)
   ElasticIntegrator integrator = ElasticIntegrator::Explicit;  // elastic only
+  double damping = 0.0;  // Pa s, Kelvin-Voigt viscosity (explicit elastic only)
   double sample_spacing = 0.0;  // m, collision particle spacing (rigid, elastic, collider); 0: dx / 2
   std::optional<AnimationDesc> animation;  // collider, sink, mpm source
   std::optional<EmitDesc> emit;            // mpm only: a source

@@ -132,6 +132,7 @@ ElasticSolid buildElasticSolid(const SceneDesc& scene, size_t i, const SolidSamp
     ElasticSolid e = makeElasticSolid(int(i), obj.name, s.samples, std::move(s.surface), m,
                                       obj.friction, toVec(obj.velocity));
     e.implicit = obj.integrator == ElasticIntegrator::Implicit;
+    e.fem.damping = obj.damping;
     return e;
   } catch (const InputError& e) {
     throw InputError(objectKey(scene, i) + ".material", e.what());

@@ -326,6 +326,56 @@ std::vector<std::pair<double, double>> extrema(const std::vector<double>& u, dou
   return e;
 }
 
+// Kelvin-Voigt damping (the solid's `damping`, eta): on the pinned column
+// (nu = 0, so every element is in uniaxial strain) the viscous stress is
+// 2 eta de/dt beside E e, and the first mode rings down at the damping
+// ratio zeta = eta w / E: amplitude exp(-2 pi zeta / sqrt(1 - zeta^2)) per
+// period, the period 1 / sqrt(1 - zeta^2) longer. Higher modes, damped in
+// proportion to their frequency, are gone by the second period.
+TEST(Fem, DampingRingsDownAtItsDampingRatio) {
+  const Vec3d g(0, -kG, 0);
+  FemBody free_col = pinnedColumn();
+  std::vector<Vec3d> f;
+  const double dt0 = free_col.stableDt(0.5);
+  const auto e0 = extrema(modeHistory(free_col, dt0, 0.25, [&](FemBody& b, double h) {
+    b.stepExplicit(h, g, f);
+  }), dt0);
+  ASSERT_GE(e0.size(), 5u);
+  const double period = 0.5 * (e0[4].first - e0[0].first), w = 2 * M_PI / period;
+  for (double zeta : {0.02, 0.1}) {
+    FemBody b = pinnedColumn();
+    b.damping = zeta * kColumnE / w;
+    const double dt = b.stableDt(0.5);
+    EXPECT_LT(dt, dt0 + 1e-15);  // the viscous limit, where it is the smaller
+    const auto e = extrema(modeHistory(b, dt, 6 * period, [&](FemBody& c, double h) {
+      c.stepExplicit(h, g, f);
+    }), dt);
+    ASSERT_GE(e.size(), 7u);
+    const double amp1 = std::abs(e[2].second - e[1].second);
+    const double amp2 = std::abs(e[4].second - e[3].second);
+    const double expect = std::exp(-2 * M_PI * zeta / std::sqrt(1 - zeta * zeta));
+    const double damped_period = 0.5 * (e[5].first - e[1].first);
+    std::printf("zeta %.2f (eta %.1f Pa s): amplitude per period %.4f (Kelvin-Voigt %.4f), period "
+                "%.5f s (undamped %.5f, expected %.5f)\n",
+                zeta, b.damping, amp2 / amp1, expect, damped_period, period,
+                period / std::sqrt(1 - zeta * zeta));
+    EXPECT_NEAR(amp2 / amp1, expect, 0.01);
+    EXPECT_NEAR(damped_period, period / std::sqrt(1 - zeta * zeta), 0.01 * period);
+  }
+  // A rigid motion is not damped: a spinning, moving column keeps its
+  // kinetic energy.
+  FemBody spin = pinnedColumn();
+  spin.damping = 100.0;
+  for (size_t i = 0; i < spin.nodes(); ++i) {
+    spin.pinned[i] = 0;
+    const Vec3d r = spin.x[i] - Vec3d(0.02, 0.1, 0.02);
+    spin.v[i] = Vec3d(0.3, 0, 0) + Vec3d(0, 0, 2.0).cross(r);
+  }
+  const double ke0 = spin.kineticEnergy(), h = spin.stableDt(0.5);
+  for (int k = 0; k < 200; ++k) spin.stepExplicit(h, Vec3d::Zero(), f);
+  EXPECT_NEAR(spin.kineticEnergy(), ke0, 0.01 * ke0);
+}
+
 // Backward Euler's own dynamics on the pinned column suddenly loaded by its
 // weight. For an oscillation of angular frequency w it multiplies the
 // amplitude by (1 + w^2 h^2)^(-1/2) and advances the phase by atan(w h)

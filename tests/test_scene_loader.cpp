@@ -727,6 +727,19 @@ TEST_F(SceneLoaderTest, IntegratorOnlyForElasticObjects) {
                        {"objects[2].integrator", "only elastic objects take it"}));
 }
 
+TEST_F(SceneLoaderTest, DampingForExplicitElasticObjects) {
+  // objects[3] of the example scene is an elastic cube, objects[2] a rigid ball.
+  EXPECT_EQ(load(exampleScene()).objects[3].damping, 0.0);
+  EXPECT_EQ(load(with(exampleScene(), "/objects/3/damping", 20)).objects[3].damping, 20.0);
+  EXPECT_TRUE(contains(error(with(exampleScene(), "/objects/3/damping", -1)),
+                       {"objects[3].damping", "non-negative"}));
+  json implicit = with(exampleScene(), "/objects/3/integrator", "implicit");
+  EXPECT_TRUE(contains(error(with(implicit, "/objects/3/damping", 20)),
+                       {"objects[3].damping", "backward Euler"}));
+  EXPECT_TRUE(contains(error(with(exampleScene(), "/objects/2/damping", 20)),
+                       {"objects[2].damping", "only elastic objects take it"}));
+}
+
 TEST_F(SceneLoaderTest, SampleSpacingForSolidsWithinDxOverEightToDx) {
   // Left out: 0, the sampler's dx/2. The bounds themselves are allowed.
   EXPECT_EQ(load(exampleScene()).objects[3].sample_spacing, 0.0);

@@ -65,7 +65,28 @@ double FemBody::totalMass() const {
   return m;
 }
 
-void FemBody::forces(std::vector<Vec3d>& f) const { forcesAt(x, f); }
+void FemBody::forces(std::vector<Vec3d>& f) const {
+  forcesAt(x, f);
+  if (damping <= 0.0) return;
+  // Kelvin-Voigt: sigma = 2 eta D with D = sym(dF/dt F^-1), so that a rigid
+  // motion (dF/dt F^-1 skew) is not damped; P = J sigma F^-T.
+#pragma omp parallel for schedule(static) if (mesh.tets.size() > 512)
+  for (int64_t t = 0; t < int64_t(mesh.tets.size()); ++t) {
+    const Mat3d F = edges(x, mesh.tets[t]) * dm_inv[t];
+    const Mat3d Fdot = edges(v, mesh.tets[t]) * dm_inv[t];
+    const Mat3d Finv = F.inverse();
+    const Mat3d L = Fdot * Finv;
+    const Mat3d P = F.determinant() * damping * (L + L.transpose()) * Finv.transpose();
+    h_[t] = -volume[t] * P * dm_inv[t].transpose();
+  }
+  for (size_t t = 0; t < mesh.tets.size(); ++t) {
+    const auto& n = mesh.tets[t];
+    for (int k = 0; k < 3; ++k) {
+      f[n[k + 1]] += h_[t].col(k);
+      f[n[0]] -= h_[t].col(k);
+    }
+  }
+}
 
 void FemBody::forcesAt(const std::vector<Vec3d>& y, std::vector<Vec3d>& f) const {
   // Element stresses in parallel (the polar decomposition is the cost),
@@ -110,7 +131,11 @@ double FemBody::kineticEnergy() const {
   return e;
 }
 
-double FemBody::stableDt(double cfl) const { return cfl * min_height / wave_speed; }
+double FemBody::stableDt(double cfl) const {
+  const double elastic = cfl * min_height / wave_speed;
+  if (damping <= 0.0) return elastic;
+  return std::min(elastic, cfl * density * min_height * min_height / (6.0 * damping));
+}
 
 void FemBody::stepExplicit(double dt, const Vec3d& gravity, std::vector<Vec3d>& f) {
   forces(f);

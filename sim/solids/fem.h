@@ -60,6 +60,9 @@ struct FemBody {
   double density = 0.0;
   double wave_speed = 0.0;  // dilatational, sqrt((lambda + 2 mu) / rho)
   double min_height = 0.0;  // smallest element height at rest
+  // Kelvin-Voigt viscosity, Pa s: a viscous stress 2 eta D beside the
+  // elastic one, D the rate of deformation (explicit integration only).
+  double damping = 0.0;
 
   std::vector<Vec3d> x, v;      // node positions and velocities
   std::vector<double> mass;     // lumped: a quarter of each element's mass
@@ -70,14 +73,16 @@ struct FemBody {
 
   size_t nodes() const { return x.size(); }
   double totalMass() const;
-  // Elastic forces on the nodes, -dE/dx: f is resized and overwritten.
+  // Elastic forces on the nodes, -dE/dx, and with `damping` the viscous
+  // forces of the velocities v: f is resized and overwritten.
   void forces(std::vector<Vec3d>& f) const;
   // The same at node positions y.
   void forcesAt(const std::vector<Vec3d>& y, std::vector<Vec3d>& f) const;
   double elasticEnergy() const;
   double kineticEnergy() const;
   // Largest stable explicit step: cfl times the time a dilatational wave
-  // takes to cross the smallest element height.
+  // takes to cross the smallest element height, and with `damping` the
+  // viscous limit, cfl rho h^2 / (6 eta).
   double stableDt(double cfl) const;
   // Symplectic Euler: v += dt (f / m + g), then x += dt v; pinned nodes
   // keep their velocity zero.
