@@ -145,10 +145,14 @@ SceneEstimate estimateScene(const SceneDesc& scene) {
         if (o.kind == ObjectKind::Elastic) {
           const MaterialDesc& m = scene.materials[size_t(o.material)];
           per = o.integrator == ElasticIntegrator::Implicit ? kImplicitSampleBytes : kElasticSampleBytes;
-          // The explicit elements' step: a wave crossing an element's height.
-          if (o.integrator == ElasticIntegrator::Explicit)
-            dt_solid = std::min(dt_solid, std::min(scene.solver.cfl, 0.5) * h / std::sqrt(3.0) /
-                                              double(waveSpeed(m)));
+          // The explicit elements' step: a wave crossing an element's height,
+          // and with damping the viscous limit rho h^2 / (6 eta).
+          if (o.integrator == ElasticIntegrator::Explicit) {
+            const double cfl = std::min(scene.solver.cfl, 0.5), height = h / std::sqrt(3.0);
+            dt_solid = std::min(dt_solid, cfl * height / double(waveSpeed(m)));
+            if (o.damping > 0)
+              dt_solid = std::min(dt_solid, cfl * m.density * height * height / (6.0 * o.damping));
+          }
         }
         oe.bytes = oe.particles * per;
       }
