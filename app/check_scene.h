@@ -1,6 +1,7 @@
 #pragma once
 // `triad check SCENE.json`: the scene validated as `triad run` would and
-// what it will need estimated, in a moment, without simulating.
+// what it will need estimated, in a moment, without simulating; with
+// --probe, a few seconds of the run itself measure its rate and step.
 #include <string>
 
 namespace triad {
@@ -9,6 +10,9 @@ struct CheckOptions {
   std::string scene_path;
   std::string quality;  // --quality preset; empty: as written
   bool json = false;    // the estimate as JSON on stdout, for tools
+  // Seconds of a probe run: the scene built and stepped on this machine for
+  // about that long, its rate and step measured (0: no probe).
+  double probe = 0.0;
 };
 
 // Exit 0 when the scene is valid and fits, 2 otherwise (with the message).

@@ -52,6 +52,11 @@ int main(int argc, char** argv) {
   check_cmd->add_option("scene", check.scene_path, "Scene file (JSON)")->required();
   check_cmd->add_option("--quality", check.quality, "Quality preset, as for run");
   check_cmd->add_flag("--json", check.json, "The estimate as JSON on stdout");
+  check_cmd
+      ->add_option("--probe", check.probe,
+                   "Also build the scene and step it for about this many seconds: its measured "
+                   "rate, step and whole-run time")
+      ->check(CLI::Range(0.0, 3600.0));
 
   try {
     app.parse(argc, argv);

@@ -61,6 +61,34 @@ TEST(Estimate, CheckCountsTheParticlesARunMakes) {
   EXPECT_NE(text.out.find("substeps a frame"), std::string::npos) << text.out;
 }
 
+// --probe steps the scene itself: long enough, it runs the whole of it, and
+// takes exactly the run's steps; cut short, it has taken at least one and
+// puts the whole run beyond what it measured. (Its seconds are this
+// machine's and are not asserted.)
+TEST(Estimate, ProbeStepsTheRunItself) {
+  const fs::path dir = test::tempDir("estimate_probe");
+  const std::string scene = test::writeScene(dir, mixedShapes(dir));
+  const test::CliResult c = test::runTriad(dir, "check " + scene + " --json --probe 600");
+  ASSERT_EQ(c.status, 0) << c.err;
+  const json probe = json::parse(c.out)["probe"];
+  ASSERT_EQ(test::runTriad(dir, "run " + scene + " --quiet --out " + (dir / "out").string()).status, 0);
+  const json rec = json::parse(test::slurp(dir / "out" / "run.json"));
+  EXPECT_TRUE(probe["whole_run"].get<bool>());
+  EXPECT_EQ(probe["steps"].get<int>(), rec["steps"].get<int>());
+  EXPECT_DOUBLE_EQ(probe["simulated_seconds"].get<double>(), 1.0 / 24);
+  EXPECT_GT(probe["particle_substeps_per_second"].get<double>(), 0.0);
+  // Cut short after its first step.
+  const test::CliResult s = test::runTriad(dir, "check " + scene + " --json --probe 1e-9");
+  ASSERT_EQ(s.status, 0) << s.err;
+  const json p = json::parse(s.out)["probe"];
+  EXPECT_FALSE(p["whole_run"].get<bool>());
+  EXPECT_EQ(p["steps"].get<int>(), 1);
+  EXPECT_GT(p["run_wall_seconds"].get<double>(), p["wall_seconds"].get<double>());
+  // For people: a line after the estimate.
+  const test::CliResult text = test::runTriad(dir, "check " + scene + " --probe 1e-9");
+  EXPECT_NE(text.out.find("probe: built in"), std::string::npos) << text.out;
+}
+
 // dx = 1e-5 m asks for about 1e14 particles: refused before any sampling,
 // in well under 5 s and 1 GiB, naming the object, the count and what to
 // change; `triad check` says the same with exit 2.
