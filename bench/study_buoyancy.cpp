@@ -25,11 +25,8 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <filesystem>
-#include <fstream>
 #include <nlohmann/json.hpp>
 #include <string>
-#include <unistd.h>
 
 #include "import/mesh_sampler.h"
 #include "import/scene_loader.h"
@@ -132,18 +129,13 @@ int main(int argc, char** argv) {
   if (s.fixed) slab["fixed"] = true;
   j["objects"].push_back(slab);
 
-  const auto dir = std::filesystem::temp_directory_path() / "triad_study_buoyancy";
-  std::filesystem::create_directories(dir);
-  const auto path = dir / ("scene_" + std::to_string(::getpid()) + ".json");
-  std::ofstream(path) << j.dump();
   triad::World w;
   try {
-    w = triad::buildSceneWorld(triad::loadScene(path.string()));
+    w = triad::buildSceneWorld(triad::parseScene(j, "study_buoyancy.json"));
   } catch (const std::exception& e) {
     std::fprintf(stderr, "%s\n", e.what());
     return 1;
   }
-  std::filesystem::remove(path);
   triad::Solver solver(w);
 
   // The slab's bottom and mean height; the water level from the water's

@@ -13,8 +13,6 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <filesystem>
-#include <fstream>
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -45,11 +43,7 @@ json sand() {
 }
 
 triad::World build(const json& j) {
-  const auto dir = std::filesystem::temp_directory_path() / "triad_study";
-  std::filesystem::create_directories(dir);
-  const auto path = dir / "scene.json";
-  std::ofstream(path) << j.dump();
-  return triad::buildSceneWorld(triad::loadScene(path.string()));
+  return triad::buildSceneWorld(triad::parseScene(j, "study_coupling.json"));
 }
 
 Vec3d mpmMomentum(const triad::World& w) {

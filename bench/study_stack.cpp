@@ -9,12 +9,9 @@
 // largest) and the lower cube's drift, then the largest drift over the run.
 #include <omp.h>
 
-#include <unistd.h>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <filesystem>
-#include <fstream>
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -91,18 +88,13 @@ int main(int argc, char** argv) {
     if (damping > 0) o["damping"] = damping;
     j["objects"].push_back(o);
   }
-  const auto dir = std::filesystem::temp_directory_path() / "triad_study_stack";
-  std::filesystem::create_directories(dir);
-  const auto path = dir / ("scene_" + std::to_string(::getpid()) + ".json");
-  std::ofstream(path) << j.dump();
   triad::World w;
   try {
-    w = triad::buildSceneWorld(triad::loadScene(path.string()));
+    w = triad::buildSceneWorld(triad::parseScene(j, "study_stack.json"));
   } catch (const std::exception& e) {
     std::fprintf(stderr, "%s\n", e.what());
     return 1;
   }
-  std::filesystem::remove(path);
   triad::Solver solver(w);
   const triad::FemBody& lo = w.elastics[0].fem;
   const triad::FemBody& up = w.elastics[1].fem;
