@@ -298,6 +298,24 @@ TEST_F(SceneLoaderTest, FillsModelDefaultsAndReadsExtensions) {
   EXPECT_EQ(s.solver.coupling, CouplingScheme::SingleGrid);
 }
 
+// The cells of a markdown table row ("| a | b |"), trimmed; none for
+// another line.
+std::vector<std::string> tableCells(const std::string& line) {
+  std::vector<std::string> cells;
+  if (line.rfind("|", 0) != 0) return cells;
+  for (size_t at = 1, next; (next = line.find('|', at)) != std::string::npos; at = next + 1) {
+    std::string c = line.substr(at, next - at);
+    c.erase(0, c.find_first_not_of(' '));
+    c.erase(c.find_last_not_of(' ') + 1);
+    cells.push_back(c);
+  }
+  return cells;
+}
+
+// A cell that is a literal in backticks, and what is inside them.
+bool quoted(const std::string& t) { return t.size() >= 2 && t.front() == '`' && t.back() == '`'; }
+std::string unquoted(const std::string& t) { return t.substr(1, t.size() - 2); }
+
 // The defaults scenes/README.md documents, by section ("## `solver`"; the
 // rows before the first such heading are "Top level"): a table row whose
 // key is in backticks and whose third column is a JSON literal in backticks.
@@ -305,25 +323,15 @@ std::map<std::string, std::map<std::string, json>> documentedDefaults() {
   std::ifstream in(std::string(TRIAD_SOURCE_DIR) + "/scenes/README.md");
   std::map<std::string, std::map<std::string, json>> doc;
   std::string line, section = "Top level";
-  auto strip = [](std::string t) {
-    const size_t a = t.find_first_not_of(' '), b = t.find_last_not_of(' ');
-    return a == std::string::npos ? std::string() : t.substr(a, b - a + 1);
-  };
-  auto quoted = [](const std::string& t) {
-    return t.size() >= 2 && t.front() == '`' && t.back() == '`';
-  };
   while (std::getline(in, line)) {
     if (line.rfind("## `", 0) == 0) {
       section = line.substr(4, line.find('`', 4) - 4);
       continue;
     }
-    if (line.rfind("| `", 0) != 0) continue;
-    std::vector<std::string> cells;
-    for (size_t at = 1, next; (next = line.find('|', at)) != std::string::npos; at = next + 1)
-      cells.push_back(strip(line.substr(at, next - at)));
+    const std::vector<std::string> cells = tableCells(line);
     if (cells.size() < 4 || !quoted(cells[0]) || !quoted(cells[2])) continue;
-    const json value = json::parse(cells[2].substr(1, cells[2].size() - 2), nullptr, false);
-    if (!value.is_discarded()) doc[section][cells[0].substr(1, cells[0].size() - 2)] = value;
+    const json value = json::parse(unquoted(cells[2]), nullptr, false);
+    if (!value.is_discarded()) doc[section][unquoted(cells[0])] = value;
   }
   return doc;
 }
@@ -343,7 +351,6 @@ TEST_F(SceneLoaderTest, DefaultsAreTheDocumentedOnes) {
       {"poisson_ratio", 0.3}};
   base["materials"]["water"] = {{"model", "water"}, {"density", 1000}, {"bulk_modulus", 2e5}};
   using Get = std::function<json(const SceneDesc&)>;
-  auto mat = [](int k) { return [k](const SceneDesc& s) { return s.materials[size_t(k)]; }; };
   struct Case {
     std::string section, key, pointer;
     Get get;
@@ -379,19 +386,19 @@ TEST_F(SceneLoaderTest, DefaultsAreTheDocumentedOnes) {
       {"solver", "contact_iterations", "/solver/contact_iterations",
        [](const SceneDesc& s) { return json(s.solver.contact_iterations); }},
       {"materials", "critical_compression", "/materials/snow/critical_compression",
-       [=](const SceneDesc& s) { return json(mat(2)(s).critical_compression); }},
+       [](const SceneDesc& s) { return json(s.materials[2].critical_compression); }},
       {"materials", "critical_stretch", "/materials/snow/critical_stretch",
-       [=](const SceneDesc& s) { return json(mat(2)(s).critical_stretch); }},
+       [](const SceneDesc& s) { return json(s.materials[2].critical_stretch); }},
       {"materials", "hardening", "/materials/snow/hardening",
-       [=](const SceneDesc& s) { return json(mat(2)(s).hardening); }},
+       [](const SceneDesc& s) { return json(s.materials[2].hardening); }},
       {"materials", "friction_angle_deg", "/materials/sand/friction_angle_deg",
-       [=](const SceneDesc& s) { return json(mat(1)(s).friction_angle_deg); }},
+       [](const SceneDesc& s) { return json(s.materials[1].friction_angle_deg); }},
       {"materials", "cohesion", "/materials/sand/cohesion",
-       [=](const SceneDesc& s) { return json(mat(1)(s).cohesion); }},
+       [](const SceneDesc& s) { return json(s.materials[1].cohesion); }},
       {"materials", "viscosity", "/materials/water/viscosity",
-       [=](const SceneDesc& s) { return json(mat(3)(s).viscosity); }},
+       [](const SceneDesc& s) { return json(s.materials[3].viscosity); }},
       {"materials", "gamma", "/materials/water/gamma",
-       [=](const SceneDesc& s) { return json(mat(3)(s).gamma); }},
+       [](const SceneDesc& s) { return json(s.materials[3].gamma); }},
       {"output", "ply", "/output/ply", [](const SceneDesc& s) { return json(s.output.ply); }},
       {"output", "vdb", "/output/vdb", [](const SceneDesc& s) { return json(s.output.vdb); }},
       {"output", "png", "/output/png", [](const SceneDesc& s) { return json(s.output.png); }},
@@ -428,15 +435,9 @@ TEST(QualityDocs, PresetsAreTheDocumentedOnes) {
   std::string line;
   size_t rows = 0;
   while (std::getline(in, line)) {
-    std::vector<std::string> cells;
-    for (size_t at = 1, next; (next = line.find('|', at)) != std::string::npos; at = next + 1) {
-      std::string c = line.substr(at, next - at);
-      c.erase(0, c.find_first_not_of(' '));
-      c.erase(c.find_last_not_of(' ') + 1);
-      cells.push_back(c);
-    }
-    if (cells.size() != 5 || cells[0].size() < 3 || cells[0].front() != '`') continue;
-    const std::string name = cells[0].substr(1, cells[0].size() - 2);
+    const std::vector<std::string> cells = tableCells(line);
+    if (cells.size() != 5 || !quoted(cells[0])) continue;
+    const std::string name = unquoted(cells[0]);
     const auto p = findQualityPreset(name);
     if (!p && name != "draft" && name != "preview" && name != "final") continue;
     ASSERT_TRUE(p.has_value()) << "documented preset " << name << " is not in the code";
