@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cstdio>
+#include <optional>
 
 #include <nlohmann/json.hpp>
 
@@ -84,15 +85,16 @@ int checkScene(const CheckOptions& options) {
     const SceneEstimate e = estimateScene(scene);
     for (const std::string& w : extremeWarnings(scene, e))
       std::fprintf(stderr, "triad: warning: %s\n", w.c_str());
-    // A probe only of a scene that fits; the estimate is printed either way.
-    nlohmann::json probe;
-    bool fits = true;
+    // A probe only of a scene that fits; the estimate is printed either way,
+    // then the refusal.
+    std::optional<InputError> unfit;
     try {
       requireFits(scene, e);
-    } catch (const InputError&) {
-      fits = false;
+    } catch (const InputError& err) {
+      unfit = err;
     }
-    if (fits && options.probe > 0) probe = probeScene(scene, options.probe);
+    nlohmann::json probe;
+    if (!unfit && options.probe > 0) probe = probeScene(scene, options.probe);
     if (options.json) {
       nlohmann::ordered_json j = nlohmann::ordered_json::parse(estimateJson(e));
       if (!probe.is_null()) j["probe"] = probe;
@@ -101,7 +103,7 @@ int checkScene(const CheckOptions& options) {
       std::printf("%s: valid; estimate:\n%s%s", scene.source_path.c_str(),
                   describeEstimate(e).c_str(), probe.is_null() ? "" : describeProbe(probe).c_str());
     }
-    requireFits(scene, e);
+    if (unfit) throw *unfit;
   } catch (const InputError& err) {
     std::fprintf(stderr, "triad: error: %s\n", err.what());
     return kExitBadInput;

@@ -210,7 +210,6 @@ bool findPenetration(const ElasticSolid& b, const EndOfStep& end, const Vec3d& x
     Face face = faces[0].face;
     const double nearest = faces[0].dist, h = fb.mesh.spacing;
     if (nearest <= 0.0) return false;
-    const Vec3d rel = F.inverse() * (v - vb);  // the point's motion relative to b, at rest
     // A point barely inside leaves through its nearest face: a node of a
     // surface sliding along this one, which the other's leading face sweeps
     // over, is a bump to ride over, not a wall to stop at. But a node of a
@@ -221,7 +220,8 @@ bool findPenetration(const ElasticSolid& b, const EndOfStep& end, const Vec3d& x
     // nearest at a depth of nothing, nothing held them up.
     Face entry;
     if (nearest > kShallow * h) {
-      if (entryDepth(b, rest, -dt * rel, entry) >= 0.0) face = entry;
+      // Walked back along its motion relative to b, at rest.
+      if (entryDepth(b, rest, -dt * (F.inverse() * (v - vb)), entry) >= 0.0) face = entry;
     } else if (nearest < kOnPlane * h && own.squaredNorm() > 0.0) {
       const Mat3d G = F.inverse().transpose();
       auto facing = [&](const Face& f) {

@@ -8,13 +8,13 @@
 // the nearest one along the axes, unless another face within a quarter of
 // a spacing is turned against the node's own surface normal: along an edge
 // of two cubes stacked face to face, the upper's nodes lie on the lower's
-// side planes, and the nearest face would hold them with no depth at all. A cell's own sample normal would not do:
-// at edges and corners it points to whichever face was nearest the cell's
-// centre, not the point's. The impulse stops the approach and removes the
-// rest of the penetration at most a tenth of a sample spacing per step; it
-// is shared between the node and the tetrahedron's four nodes by mass and
-// barycentric weight, so momentum is kept, with Coulomb friction at the
-// pair's geometric-mean coefficient.
+// side planes, and the nearest face would hold them with no depth at all.
+// A cell's own sample normal would not do: at edges and corners it points
+// to whichever face was nearest the cell's centre, not the point's. The
+// impulse stops the approach and removes a fifth of the rest of the
+// penetration per step; it is shared between the node and the
+// tetrahedron's four nodes by mass and barycentric weight, so momentum is
+// kept, with Coulomb friction at the pair's geometric-mean coefficient.
 #include <cstddef>
 #include <vector>
 

@@ -65,53 +65,52 @@ double FemBody::totalMass() const {
   return m;
 }
 
-void FemBody::forces(std::vector<Vec3d>& f) const {
-  forcesAt(x, f);
-  if (damping <= 0.0) return;
-  // Kelvin-Voigt: sigma = 2 eta D with D = sym(dF/dt F^-1), so that a rigid
-  // motion (dF/dt F^-1 skew) is not damped; P = J sigma F^-T.
-#pragma omp parallel for schedule(static) if (mesh.tets.size() > 512)
-  for (int64_t t = 0; t < int64_t(mesh.tets.size()); ++t) {
-    const Mat3d F = edges(x, mesh.tets[t]) * dm_inv[t];
-    const Mat3d Fdot = edges(v, mesh.tets[t]) * dm_inv[t];
-    const Mat3d Finv = F.inverse();
-    const Mat3d L = Fdot * Finv;
-    const Mat3d P = F.determinant() * damping * (L + L.transpose()) * Finv.transpose();
-    h_[t] = -volume[t] * P * dm_inv[t].transpose();
-  }
-  for (size_t t = 0; t < mesh.tets.size(); ++t) {
-    const auto& n = mesh.tets[t];
+namespace {
+
+// Element stresses in parallel (the polar decomposition is the cost), then
+// a serial scatter in element order: the same sums on any number of
+// threads. With velocities, each element adds the Kelvin-Voigt stress
+// sigma = 2 eta D, D = sym(dF/dt F^-1), so that a rigid motion (dF/dt F^-1
+// skew) is not damped: P_v = J sigma F^-T.
+void elementForces(const FemBody& b, const std::vector<Vec3d>& y, const std::vector<Vec3d>* vel,
+                   std::vector<Vec3d>& f) {
+  const auto& tets = b.mesh.tets;
+  b.h_.resize(tets.size());
+  // The material is visited once for the whole body, not per element.
+  std::visit(
+      [&](const auto& mat) {
+#pragma omp parallel for schedule(static) if (tets.size() > 512)
+        for (int64_t t = 0; t < int64_t(tets.size()); ++t) {
+          const Mat3d F = edges(y, tets[t]) * b.dm_inv[t];
+          Mat3d P = mat.firstPiola(F);
+          if (vel) {
+            const Mat3d Finv = F.inverse();
+            const Mat3d L = edges(*vel, tets[t]) * b.dm_inv[t] * Finv;
+            P += F.determinant() * b.damping * (L + L.transpose()) * Finv.transpose();
+          }
+          // H = -V P Dm^-T: the forces on nodes 1..3; node 0 takes minus their sum.
+          b.h_[t] = -b.volume[t] * P * b.dm_inv[t].transpose();
+        }
+      },
+      b.model);
+  f.assign(y.size(), Vec3d::Zero());
+  for (size_t t = 0; t < tets.size(); ++t) {
+    const auto& n = tets[t];
     for (int k = 0; k < 3; ++k) {
-      f[n[k + 1]] += h_[t].col(k);
-      f[n[0]] -= h_[t].col(k);
+      f[n[k + 1]] += b.h_[t].col(k);
+      f[n[0]] -= b.h_[t].col(k);
     }
   }
 }
 
+}  // namespace
+
+void FemBody::forces(std::vector<Vec3d>& f) const {
+  elementForces(*this, x, damping > 0.0 ? &v : nullptr, f);
+}
+
 void FemBody::forcesAt(const std::vector<Vec3d>& y, std::vector<Vec3d>& f) const {
-  // Element stresses in parallel (the polar decomposition is the cost),
-  // then a serial scatter in element order: the same sums on any number of
-  // threads.
-  h_.resize(mesh.tets.size());
-  // The material is visited once for the whole body, not per element.
-  std::visit(
-      [&](const auto& mat) {
-#pragma omp parallel for schedule(static) if (mesh.tets.size() > 512)
-        for (int64_t t = 0; t < int64_t(mesh.tets.size()); ++t) {
-          const Mat3d F = edges(y, mesh.tets[t]) * dm_inv[t];
-          // H = -V P Dm^-T: the forces on nodes 1..3; node 0 takes minus their sum.
-          h_[t] = -volume[t] * mat.firstPiola(F) * dm_inv[t].transpose();
-        }
-      },
-      model);
-  f.assign(y.size(), Vec3d::Zero());
-  for (size_t t = 0; t < mesh.tets.size(); ++t) {
-    const auto& n = mesh.tets[t];
-    for (int k = 0; k < 3; ++k) {
-      f[n[k + 1]] += h_[t].col(k);
-      f[n[0]] -= h_[t].col(k);
-    }
-  }
+  elementForces(*this, y, nullptr, f);
 }
 
 double FemBody::elasticEnergy() const {

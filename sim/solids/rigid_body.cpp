@@ -52,34 +52,31 @@ void RigidBody::applyImpulse(const Vec3d& j, const Vec3d& p) {
   state.L += (p - state.x).cross(j);
 }
 
-int RigidBody::sampleAt(const Vec3d& p) const {
+Eigen::Vector3i RigidBody::latticeCell(const Vec3d& p) const {
   // World -> rest frame: rest = P R^T (p - x), with P the principal frame in the rest frame.
   const Vec3d rest = principal * (state.q_principal.conjugate() * (p - state.x));
   const Vec3d c = (rest - lattice_origin) / double(spacing);
-  Eigen::Vector3i i;
-  for (int d = 0; d < 3; ++d) {
-    i[d] = static_cast<int>(std::lround(c[d]));
+  return {int(std::lround(c.x())), int(std::lround(c.y())), int(std::lround(c.z()))};
+}
+
+int RigidBody::sampleIn(const Eigen::Vector3i& i) const {
+  for (int d = 0; d < 3; ++d)
     if (i[d] < 0 || i[d] >= cell_dims[d]) return -1;
-  }
   return cells[(size_t(i.x()) * cell_dims.y() + i.y()) * cell_dims.z() + i.z()];
 }
 
+int RigidBody::sampleAt(const Vec3d& p) const { return sampleIn(latticeCell(p)); }
+
 int RigidBody::supportAt(const Vec3d& p, const Mat3d& R) const {
   if ((p - state.x).squaredNorm() > double(radius) * radius) return -1;
-  const Vec3d body = R.transpose() * (p - state.x);
-  const Vec3d rest = principal * (state.q_principal.conjugate() * (p - state.x));
-  const Vec3d c = (rest - lattice_origin) / double(spacing);
-  const Eigen::Vector3i mid(int(std::lround(c.x())), int(std::lround(c.y())),
-                            int(std::lround(c.z())));
+  const Vec3d body = R.transpose() * (p - state.x);  // the frame of r and n
+  const Eigen::Vector3i mid = latticeCell(p);
   int best = -1;
   double best_d = -std::numeric_limits<double>::infinity();
-  for (int i = mid.x() - 1; i <= mid.x() + 1; ++i)
-    for (int j = mid.y() - 1; j <= mid.y() + 1; ++j)
-      for (int k = mid.z() - 1; k <= mid.z() + 1; ++k) {
-        if (i < 0 || j < 0 || k < 0 || i >= cell_dims.x() || j >= cell_dims.y() ||
-            k >= cell_dims.z())
-          continue;
-        const int q = cells[(size_t(i) * cell_dims.y() + j) * cell_dims.z() + k];
+  for (int i = -1; i <= 1; ++i)
+    for (int j = -1; j <= 1; ++j)
+      for (int k = -1; k <= 1; ++k) {
+        const int q = sampleIn(mid + Eigen::Vector3i(i, j, k));
         if (q < 0) continue;
         const double d = double(phi[size_t(q)]) +
                          n[size_t(q)].cast<double>().dot(body - r[size_t(q)].cast<double>());

@@ -90,6 +90,10 @@ struct RigidBody {
   void applyImpulse(const Vec3d& j, const Vec3d& p);
   // Index of the sample whose lattice cell holds world point p, or -1.
   int sampleAt(const Vec3d& p) const;
+  // The lattice cell that holds world point p, and the sample in a cell
+  // (-1: none, or outside the lattice).
+  Eigen::Vector3i latticeCell(const Vec3d& p) const;
+  int sampleIn(const Eigen::Vector3i& cell) const;
   // The distance field near world point p, to first order from the sample
   // whose cell holds it: signed distance (negative inside) and outward
   // normal, with R = rotation(). False outside the bounding sphere or the
