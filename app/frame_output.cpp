@@ -12,8 +12,10 @@
 
 #include "app/run_scene.h"
 #include "export/atomic_file.h"
+#include "export/particle_surface.h"
 #include "export/ply_writer.h"
 #include "export/vdb_writer.h"
+#include "export/vtk_writer.h"
 #include "sim/errors.h"
 
 namespace triad {
@@ -33,6 +35,12 @@ std::string frameName(const std::string& dir, const char* stem, int frame, const
 const std::regex& bodyFilePattern() {
   static const std::regex body_file(R"((.+)\.(\d{4,9})\.ply)");
   return body_file;
+}
+
+// VTK frame files are NAME.FFFF.vtp (groups: name, frame).
+const std::regex& vtkFilePattern() {
+  static const std::regex vtk_file(R"((.+)\.(\d{4,9})\.vtp)");
+  return vtk_file;
 }
 
 // The header of a PLY file we wrote: its size and element counts.
@@ -75,6 +83,15 @@ std::string checkParticlesPly(const std::string& path, size_t particles) {
   if (vertices != particles)
     return std::to_string(vertices) + " particles, the checkpoint has " + std::to_string(particles);
   return checkPlySize(path, *h, vertices * 36);
+}
+
+// A mesh whose size is known only from its own header (surface meshes).
+std::string checkMeshPly(const std::string& path) {
+  const auto h = readPlyHeader(path);
+  if (!h) return fs::exists(path) ? "no PLY header" : "missing";
+  const size_t v = h->elements.count("vertex") ? h->elements.at("vertex") : 0;
+  const size_t f = h->elements.count("face") ? h->elements.at("face") : 0;
+  return checkPlySize(path, *h, v * 12 + f * 13);
 }
 
 std::string checkBodyPly(const std::string& path, const TriSurface& surface) {
@@ -124,6 +141,13 @@ std::string checkFrameCaches(const SceneDesc& scene, const std::string& out_dir,
     const std::string why = fs::exists(p) ? checkVolumesVdb(p) : "missing";
     if (!why.empty()) return p + ": " + why;
   }
+  if (scene.output.surface_mesh) {
+    for (int m : surfaceMaterials(scene)) {
+      const std::string p = surfaceMeshPath(out_dir, scene.materials[size_t(m)].name, frame);
+      const std::string why = checkMeshPly(p);
+      if (!why.empty()) return p + ": " + why;
+    }
+  }
   return "";
 }
 
@@ -153,6 +177,23 @@ std::string bodyForcesPath(const std::string& out_dir) {
   return bodiesDir(out_dir) + "/forces.csv";
 }
 
+std::string surfacesDir(const std::string& out_dir) { return out_dir + "/surfaces"; }
+
+std::string vtkDir(const std::string& out_dir) { return out_dir + "/vtk"; }
+
+std::string surfaceMeshPath(const std::string& out_dir, const std::string& material, int frame) {
+  return frameName(surfacesDir(out_dir), material.c_str(), frame, "ply");
+}
+
+std::vector<int> surfaceMaterials(const SceneDesc& scene) {
+  std::vector<int> out;
+  for (const ObjectDesc& o : scene.objects)
+    if (o.kind == ObjectKind::Mpm && o.material >= 0) out.push_back(o.material);
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
 std::string checkpointPath(const std::string& out_dir, int frame) {
   return frameName(checkpointDir(out_dir), "state", frame, "bin");
 }
@@ -162,6 +203,11 @@ void makeOutputDirectories(const SceneDesc& scene, const std::string& out_dir) {
   if (scene.output.ply) makeDirectories(out_dir + "/particles");
   if (scene.output.vdb) makeDirectories(out_dir + "/volumes");
   if (scene.output.checkpoints) makeDirectories(checkpointDir(out_dir));
+  if (scene.output.surface_mesh) makeDirectories(surfacesDir(out_dir));
+  if (scene.output.vtk) {
+    makeDirectories(vtkDir(out_dir) + "/bodies");
+    if (scene.output.surface_mesh) makeDirectories(vtkDir(out_dir) + "/surfaces");
+  }
   if (std::any_of(scene.objects.begin(), scene.objects.end(),
                   [](const ObjectDesc& o) {
                     return o.kind != ObjectKind::Mpm && o.kind != ObjectKind::Sink;
@@ -169,9 +215,43 @@ void makeOutputDirectories(const SceneDesc& scene, const std::string& out_dir) {
     makeDirectories(bodiesDir(out_dir));
 }
 
+namespace {
+
+// The VTK series of this scene, in the order of their parts in cache.pvd:
+// (part name, file stem relative to vtk/) for particles, solids, surfaces.
+std::vector<std::pair<std::string, std::string>> vtkSeries(const SceneDesc& scene) {
+  std::vector<std::pair<std::string, std::string>> series{{"particles", "particles"}};
+  for (const ObjectDesc& o : scene.objects)
+    if (o.kind == ObjectKind::Rigid || o.kind == ObjectKind::Elastic ||
+        o.kind == ObjectKind::Collider)
+      series.push_back({o.name, "bodies/" + o.name});
+  if (scene.output.surface_mesh)
+    for (int m : surfaceMaterials(scene)) {
+      const std::string& name = scene.materials[size_t(m)].name;
+      series.push_back({"surface " + name, "surfaces/" + name});
+    }
+  return series;
+}
+
+// The collection of every series for frames 0..frame, at the frames' times.
+void writeCachePvd(const SceneDesc& scene, const std::string& out_dir, int frame) {
+  std::vector<PvdEntry> entries;
+  const auto series = vtkSeries(scene);
+  for (int f = 0; f <= frame; ++f)
+    for (size_t p = 0; p < series.size(); ++p) {
+      const std::string file = frameName(".", series[p].second.c_str(), f, "vtp").substr(2);
+      entries.push_back({f / scene.frames.fps, int(p), series[p].first, file});
+    }
+  writePvd(vtkDir(out_dir) + "/cache.pvd", entries);
+}
+
+}  // namespace
+
 void writeFrameCaches(const SceneDesc& scene, const std::string& out_dir, const World& world,
                       int frame) {
+  const bool vtk = scene.output.vtk;
   if (scene.output.ply) writeParticlesPly(particlesPath(out_dir, frame), world);
+  if (vtk) writeParticlesVtp(frameName(vtkDir(out_dir), "particles", frame, "vtp"), world);
   if (scene.output.vdb) {
     VdbFrameInfo info;
     info.frame = frame;
@@ -181,6 +261,30 @@ void writeFrameCaches(const SceneDesc& scene, const std::string& out_dir, const 
                                                       : scene.domain.dx;
     info.surface = scene.output.vdb_surface;
     writeVolumesVdb(volumesPath(out_dir, frame), world, info);
+  }
+  if (scene.output.surface_mesh) {
+    SurfaceMeshSettings settings;
+    settings.voxel_size =
+        scene.output.vdb_voxel_size > 0 ? scene.output.vdb_voxel_size : scene.domain.dx;
+    settings.smoothing = scene.output.surface_smoothing;
+    settings.adaptivity = scene.output.surface_adaptivity;
+    for (int m : surfaceMaterials(scene)) {
+      const std::string& name = scene.materials[size_t(m)].name;
+      const TriSurface mesh = materialSurfaceMesh(world, m, settings);
+      char comment[96];
+      std::snprintf(comment, sizeof(comment), "surface of material %s at t=%.9g s", name.c_str(),
+                    world.time);
+      writeSurfacePly(surfaceMeshPath(out_dir, name, frame), mesh, comment);
+      if (vtk) writeSurfaceVtp(frameName(vtkDir(out_dir) + "/surfaces", name.c_str(), frame, "vtp"), mesh);
+    }
+  }
+  if (vtk) {
+    const std::string bodies = vtkDir(out_dir) + "/bodies";
+    for (const RigidBody& b : world.bodies)
+      writeSurfaceVtp(frameName(bodies, b.name.c_str(), frame, "vtp"), worldSurface(b));
+    for (const ElasticSolid& e : world.elastics)
+      writeSurfaceVtp(frameName(bodies, e.name.c_str(), frame, "vtp"), e.worldSurface());
+    writeCachePvd(scene, out_dir, frame);
   }
 }
 
@@ -216,8 +320,9 @@ void writeFrameCheckpoint(const std::string& out_dir, int frame, const std::stri
 void removeStaleTemporaries(const std::string& out_dir) {
   static const std::regex tmp(R"(.+\.tmp\d+)");
   for (const std::string& dir : {out_dir, out_dir + "/particles", out_dir + "/volumes",
-                                 out_dir + "/preview", bodiesDir(out_dir),
-                                 checkpointDir(out_dir)}) {
+                                 out_dir + "/preview", bodiesDir(out_dir), surfacesDir(out_dir),
+                                 vtkDir(out_dir), vtkDir(out_dir) + "/bodies",
+                                 vtkDir(out_dir) + "/surfaces", checkpointDir(out_dir)}) {
     std::error_code ec;
     for (const auto& e : fs::directory_iterator(dir, ec)) {
       std::error_code ignored;
@@ -240,7 +345,11 @@ void removeFramesAfter(const std::string& out_dir, int last_frame) {
       {out_dir + "/particles", &frame_file},
       {out_dir + "/volumes", &frame_file},
       {out_dir + "/preview", &frame_file},
-      {bodiesDir(out_dir), &bodyFilePattern()}};
+      {bodiesDir(out_dir), &bodyFilePattern()},
+      {surfacesDir(out_dir), &bodyFilePattern()},
+      {vtkDir(out_dir), &vtkFilePattern()},
+      {vtkDir(out_dir) + "/bodies", &vtkFilePattern()},
+      {vtkDir(out_dir) + "/surfaces", &vtkFilePattern()}};
   for (const auto& [dir, pattern] : dirs) {
     std::error_code ec;
     for (const auto& e : fs::directory_iterator(dir, ec)) {
@@ -269,6 +378,17 @@ void removeOtherBodies(const std::string& out_dir, const World& world) {
                       std::any_of(world.elastics.begin(), world.elastics.end(),
                                   [&](const ElasticSolid& b) { return b.name == m[1].str(); });
     if (!ours) fs::remove(e.path(), ignored);
+  }
+  // Surface meshes of materials this run does not mesh.
+  std::vector<std::string> meshed;
+  if (world.scene.output.surface_mesh)
+    for (int k : surfaceMaterials(world.scene)) meshed.push_back(world.scene.materials[size_t(k)].name);
+  for (const auto& e : fs::directory_iterator(surfacesDir(out_dir), ec)) {
+    std::smatch m;
+    const std::string name = e.path().filename().string();
+    if (!std::regex_match(name, m, bodyFilePattern())) continue;
+    if (std::find(meshed.begin(), meshed.end(), m[1].str()) == meshed.end())
+      fs::remove(e.path(), ignored);
   }
 }
 

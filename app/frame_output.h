@@ -22,6 +22,13 @@ std::string bodiesDir(const std::string& out_dir);
 std::string bodyMeshPath(const std::string& out_dir, const std::string& name, int frame);
 std::string rigidStatesPath(const std::string& out_dir);
 std::string bodyForcesPath(const std::string& out_dir);
+std::string surfacesDir(const std::string& out_dir);
+std::string vtkDir(const std::string& out_dir);
+std::string surfaceMeshPath(const std::string& out_dir, const std::string& material, int frame);
+
+// The materials whose surfaces output.surface_mesh writes: those of the
+// scene's MPM objects, as indices into scene.materials, ascending.
+std::vector<int> surfaceMaterials(const SceneDesc& scene);
 
 // The run-long tables of bodies/: their rows of the frames written so far.
 struct BodyLogs {
@@ -33,8 +40,11 @@ struct BodyLogs {
 // the scene has rigid objects).
 void makeOutputDirectories(const SceneDesc& scene, const std::string& out_dir);
 
-// Writes the frame's cache files that the scene asks for: PLY particles and
-// the VDB volumes (voxel size output.vdb_voxel_size, else domain.dx).
+// Writes the frame's cache files that the scene asks for: PLY particles, the
+// VDB volumes (voxel size output.vdb_voxel_size, else domain.dx) and each
+// material's surface mesh (its level set's voxel bounded by the same size),
+// and with output.vtk the same as VTK PolyData, the solids' surfaces with
+// them, and vtk/cache.pvd listing frames 0..frame.
 void writeFrameCaches(const SceneDesc& scene, const std::string& out_dir, const World& world,
                       int frame);
 
@@ -58,14 +68,15 @@ void removeStaleTemporaries(const std::string& out_dir);
 // from an earlier run for a later --resume).
 void removeCheckpoints(const std::string& out_dir);
 
-// Removes the frame files (particles, volumes, body meshes, previews)
+// Removes the frame files (particles, volumes, body and surface meshes, previews)
 // numbered above `last_frame`, left by an earlier, longer run into the same
 // directory: they would otherwise be mistaken for this run's frames (the
 // contact sheet, a renderer reading the sequence).
 void removeFramesAfter(const std::string& out_dir, int last_frame);
 
 // Removes the body caches of an earlier run that are not this world's:
-// meshes of bodies it does not have, and the state table when it has none.
+// meshes of bodies it does not have, and the state table when it has none;
+// and the surface meshes of materials this scene does not mesh.
 void removeOtherBodies(const std::string& out_dir, const World& world);
 
 // Where a resumed run continues: the state after `frame` has been restored.

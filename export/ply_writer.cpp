@@ -24,6 +24,21 @@ static_assert(sizeof(PlyVertex) == 36, "PLY vertex must be packed");
 
 }  // namespace
 
+std::vector<ParticleRef> particlesById(const World& world) {
+  // Ids are unique, so the order is total.
+  std::vector<std::pair<uint32_t, ParticleRef>> keyed;
+  keyed.reserve(world.particleCount());
+  for (size_t s = 0; s < world.sets.size(); ++s)
+    for (size_t i = 0; i < world.sets[s].size(); ++i)
+      keyed.push_back({world.sets[s].id[i], ParticleRef{uint32_t(s), i}});
+  std::sort(keyed.begin(), keyed.end(),
+            [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<ParticleRef> out;
+  out.reserve(keyed.size());
+  for (const auto& k : keyed) out.push_back(k.second);
+  return out;
+}
+
 void writeParticlesPly(const std::string& path, const World& world) {
   static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "PLY writer assumes little-endian");
   const size_t n = world.particleCount();
@@ -35,29 +50,17 @@ void writeParticlesPly(const std::string& path, const World& world) {
         << "property float vx\nproperty float vy\nproperty float vz\n"
         << "property int object\nproperty float J\nproperty int id\n"
         << "end_header\n";
-    // In increasing id (the contract), whatever order the solver keeps the
-    // particles in: tools that match points by index across frames see the
-    // same point. Ids are unique, so the order is total.
-    std::vector<std::pair<uint32_t, uint32_t>> order;  // (id, entry of `where`)
-    std::vector<std::pair<uint32_t, size_t>> where;     // (set, index) of each particle
-    order.reserve(n);
-    where.reserve(n);
-    for (size_t s = 0; s < world.sets.size(); ++s)
-      for (size_t i = 0; i < world.sets[s].size(); ++i) {
-        order.emplace_back(world.sets[s].id[i], uint32_t(where.size()));
-        where.emplace_back(uint32_t(s), i);
-      }
-    std::sort(order.begin(), order.end());
+    const std::vector<ParticleRef> order = particlesById(world);
     // Stream in chunks to bound the temporary memory.
     std::vector<PlyVertex> chunk;
     chunk.reserve(65536);
-    for (const auto& [pid, k] : order) {
-      const ParticleSet& set = world.sets[where[k].first];
-      const size_t i = where[k].second;
+    for (const ParticleRef& r : order) {
+      const ParticleSet& set = world.sets[r.set];
+      const size_t i = r.index;
       const Vec3f& x = set.x[i];
       const Vec3f& v = set.v[i];
       chunk.push_back({x.x(), x.y(), x.z(), v.x(), v.y(), v.z(), int32_t(set.object[i]),
-                       set.volumeRatio(i), int32_t(pid)});
+                       set.volumeRatio(i), int32_t(set.id[i])});
       if (chunk.size() == chunk.capacity()) {
         out.write(reinterpret_cast<const char*>(chunk.data()),
                   std::streamsize(chunk.size() * sizeof(PlyVertex)));

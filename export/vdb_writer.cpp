@@ -1,11 +1,12 @@
 #include "export/vdb_writer.h"
 
 #include "export/atomic_file.h"
+#include "export/particle_level_set.h"
 
-// The only translation unit of export/ that includes OpenVDB (slow to compile).
+// OpenVDB (slow to compile) is included by this file and particle_level_set.cpp
+// and particle_surface.cpp only.
 #include <openvdb/io/File.h>
 #include <openvdb/openvdb.h>
-#include <openvdb/tools/ParticlesToLevelSet.h>
 
 #include <algorithm>
 #include <cmath>
@@ -86,57 +87,6 @@ std::pair<FloatGrid::Ptr, Vec3SGrid::Ptr> splatMass(const World& world, double h
   return {mass, momentum};
 }
 
-// Particles as ParticlesToLevelSet reads them: positions and per-set radius.
-class ParticleSpheres {
- public:
-  using PosType = openvdb::Vec3R;
-  ParticleSpheres(const World& world, const std::vector<double>& radius) : radius_(radius) {
-    for (size_t s = 0; s < world.sets.size(); ++s) {
-      sets_.push_back(&world.sets[s]);
-      start_.push_back(size_);
-      size_ += world.sets[s].size();
-    }
-  }
-  size_t size() const { return size_; }
-  void getPos(size_t n, openvdb::Vec3R& xyz) const {
-    const size_t s = setOf(n);
-    const Vec3f& x = sets_[s]->x[n - start_[s]];
-    xyz = openvdb::Vec3R(x.x(), x.y(), x.z());
-  }
-  void getPosRad(size_t n, openvdb::Vec3R& xyz, openvdb::Real& r) const {
-    getPos(n, xyz);
-    r = radius_[setOf(n)];
-  }
-
- private:
-  size_t setOf(size_t n) const {
-    return size_t(std::upper_bound(start_.begin(), start_.end(), n) - start_.begin()) - 1;
-  }
-  std::vector<const ParticleSet*> sets_;
-  std::vector<size_t> start_;
-  std::vector<double> radius_;
-  size_t size_ = 0;
-};
-
-double setRadius(const ParticleSet& set) {
-  return std::cbrt(double(set.volume)) * std::sqrt(3.0) * 0.5;
-}
-
-// Narrow-band level set of the union of particle spheres.
-FloatGrid::Ptr particleSurface(const World& world, const SurfaceSampling& s) {
-  constexpr double kHalfWidth = 3.0;  // voxels, OpenVDB's default band
-  FloatGrid::Ptr ls = openvdb::createLevelSet<FloatGrid>(s.voxel_size, kHalfWidth);
-  std::vector<double> radius;
-  for (const ParticleSet& set : world.sets) radius.push_back(setRadius(set));
-  const ParticleSpheres spheres(world, radius);
-  if (spheres.size() == 0) return ls;
-  openvdb::tools::ParticlesToLevelSet<FloatGrid> raster(*ls);
-  raster.setRmin(1.5);
-  raster.rasterizeSpheres(spheres);
-  raster.finalize(/*prune=*/true);
-  return ls;
-}
-
 // 64-bit FNV-1a over a byte range, continuing from `h`.
 uint64_t fnv1a(const char* p, size_t n, uint64_t h) {
   for (size_t i = 0; i < n; ++i) {
@@ -177,19 +127,6 @@ void makeUuidDeterministic(const std::string& file) {
 
 }  // namespace
 
-SurfaceSampling surfaceSampling(const World& world, double density_voxel_size) {
-  SurfaceSampling s;
-  double r_min = 0.0;
-  for (const ParticleSet& set : world.sets) {
-    if (set.size() == 0) continue;
-    const double r = setRadius(set);
-    s.radius = std::max(s.radius, r);
-    r_min = r_min > 0.0 ? std::min(r_min, r) : r;
-  }
-  s.voxel_size = r_min > 0.0 ? std::min(density_voxel_size, 0.5 * r_min) : density_voxel_size;
-  return s;
-}
-
 void writeVolumesVdb(const std::string& path, const World& world, const VdbFrameInfo& info) {
   if (!(info.voxel_size > 0.0)) throw std::runtime_error(path + ": voxel size must be positive");
   initOpenVdb();
@@ -203,7 +140,7 @@ void writeVolumesVdb(const std::string& path, const World& world, const VdbFrame
   density->setGridClass(openvdb::GRID_FOG_VOLUME);
   addFrameMetadata(*density, info, "kg/m^3");
   velocity->setTransform(xform);
-  velocity->setName("v");
+  velocity->setName("vel");
   velocity->setGridClass(openvdb::GRID_UNKNOWN);
   velocity->setVectorType(openvdb::VEC_CONTRAVARIANT_RELATIVE);
   addFrameMetadata(*velocity, info, "m/s");
@@ -212,7 +149,7 @@ void writeVolumesVdb(const std::string& path, const World& world, const VdbFrame
   // The optional level set of the material's surface.
   if (info.surface) {
     const SurfaceSampling s = surfaceSampling(world, info.voxel_size);
-    FloatGrid::Ptr surface = particleSurface(world, s);
+    FloatGrid::Ptr surface = particleLevelSet(world, s, /*material=*/-1);
     surface->setName("surface");
     addFrameMetadata(*surface, info, "m");
     surface->insertMeta("particle_radius", openvdb::DoubleMetadata(s.radius));
@@ -237,7 +174,7 @@ std::string checkVolumesVdb(const std::string& path) {
     openvdb::io::File file(path);
     file.open(/*delayLoad=*/false);
     std::string missing;
-    for (const char* name : {"density", "v"})
+    for (const char* name : {"density", "vel"})
       if (!file.hasGrid(name)) missing += missing.empty() ? name : std::string(", ") + name;
     file.close();
     return missing.empty() ? std::string() : "no grid " + missing;

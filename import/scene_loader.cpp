@@ -531,6 +531,12 @@ OutputDesc parseOutput(const ParamDict& root, const std::string& name,
     if (o->has("vdb_voxel_size"))
       out.vdb_voxel_size = o->requireDouble("vdb_voxel_size", Range::positive());
     out.vdb_surface = o->getBool("vdb_surface", out.vdb_surface);
+    out.surface_mesh = o->getBool("surface_mesh", out.surface_mesh);
+    out.surface_smoothing =
+        o->getInt("surface_smoothing", out.surface_smoothing, Range::closed(0, 20));
+    out.surface_adaptivity =
+        o->getDouble("surface_adaptivity", out.surface_adaptivity, Range::closed(0, 1));
+    out.vtk = o->getBool("vtk", out.vtk);
     out.checkpoints = o->getBool("checkpoints", out.checkpoints);
     o->checkUnknownKeys();
   }
@@ -605,6 +611,22 @@ SceneDesc parseScene(const nlohmann::json& j, const std::string& source_path) {
   }
 
   scene.output = parseOutput(root, scene.name, scene_dir);
+  // Surface meshes are named after their material.
+  if (scene.output.surface_mesh) {
+    std::map<std::string, std::string> folded_names;
+    for (const auto& [name, dict] : root.getNamedDicts("materials")) {
+      if (!isSafeName(name))
+        dict.fail("", "with output.surface_mesh, a material's name names its files "
+                      "(surfaces/NAME.FFFF.ply): expected the characters A-Z a-z 0-9 _ . -, got " +
+                          inQuotes(name));
+      std::string folded = name;
+      for (char& ch : folded) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+      auto [it, inserted] = folded_names.emplace(folded, name);
+      if (!inserted)
+        dict.fail("", "with output.surface_mesh, material names must differ other than in case "
+                      "(they name files), got " + inQuotes(name) + " and " + inQuotes(it->second));
+    }
+  }
   scene.render = parseRender(root);
   root.checkUnknownKeys();
   return scene;

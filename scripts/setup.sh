@@ -23,6 +23,9 @@ PACKAGES=(
   clang libclang-rt-14-dev
   # the suite's `validation` tests read the caches with numpy
   python3 python3-numpy
+  # the suite's `client` tests open the caches with the programs users open
+  # them with: VTK's readers, OpenVDB's Python module, Blender (headless)
+  python3-vtk9 python3-openvdb blender
 )
 if [ "${1:-}" = "--validation" ]; then
   # bench/validation/: the whole sweep also plots error against cost

@@ -167,6 +167,10 @@ struct OutputDesc {
   bool png = true;
   double vdb_voxel_size = 0.0;  // m; 0: the domain's dx
   bool vdb_surface = false;     // also a narrow-band level set `surface`
+  bool surface_mesh = false;    // surfaces/MATERIAL.FFFF.ply per material
+  int surface_smoothing = 1;    // Gaussian passes on the level set before meshing
+  double surface_adaptivity = 0.0;  // OpenVDB volume-to-mesh adaptivity, [0, 1]
+  bool vtk = false;             // vtk/: VTK XML PolyData per frame and vtk/cache.pvd
   bool checkpoints = true;      // checkpoints/state.FFFF.bin, for --resume
 };
 

@@ -404,6 +404,13 @@ TEST_F(SceneLoaderTest, DefaultsAreTheDocumentedOnes) {
       {"output", "png", "/output/png", [](const SceneDesc& s) { return json(s.output.png); }},
       {"output", "vdb_surface", "/output/vdb_surface",
        [](const SceneDesc& s) { return json(s.output.vdb_surface); }},
+      {"output", "surface_mesh", "/output/surface_mesh",
+       [](const SceneDesc& s) { return json(s.output.surface_mesh); }},
+      {"output", "surface_smoothing", "/output/surface_smoothing",
+       [](const SceneDesc& s) { return json(s.output.surface_smoothing); }},
+      {"output", "surface_adaptivity", "/output/surface_adaptivity",
+       [](const SceneDesc& s) { return json(s.output.surface_adaptivity); }},
+      {"output", "vtk", "/output/vtk", [](const SceneDesc& s) { return json(s.output.vtk); }},
       {"output", "checkpoints", "/output/checkpoints",
        [](const SceneDesc& s) { return json(s.output.checkpoints); }},
       {"render", "resolution", "/render/resolution",
@@ -425,6 +432,30 @@ TEST_F(SceneLoaderTest, DefaultsAreTheDocumentedOnes) {
   const json documented = doc.at("solver").at("flip_ratio");
   EXPECT_EQ(load(flip).solver.flip_ratio,
             load(with(flip, "/solver/flip_ratio", documented)).solver.flip_ratio);
+}
+
+// Surface meshes are files named after materials: names that cannot name a
+// file, or that clash on file systems ignoring case, are refused then (and
+// only then); the meshing keys are range-checked.
+TEST_F(SceneLoaderTest, SurfaceMeshNamesAndSettings) {
+  json j = minimalScene();
+  j["materials"]["wet sand"] = j["materials"].begin().value();
+  EXPECT_NO_THROW(load(j));
+  j["output"] = {{"surface_mesh", true}};
+  EXPECT_TRUE(contains(error(j), {"materials.wet sand", "surfaces/NAME.FFFF.ply", "\"wet sand\""}));
+  json clash = minimalScene();
+  const json m = clash["materials"].begin().value();
+  clash["materials"]["Water"] = m;
+  clash["materials"]["water"] = m;
+  clash["output"] = {{"surface_mesh", true}};
+  EXPECT_TRUE(contains(error(clash), {"other than in case", "\"Water\""}));
+  json k = minimalScene();
+  k["output"] = {{"surface_mesh", true}, {"surface_smoothing", 21}};
+  EXPECT_TRUE(contains(error(k), {"output.surface_smoothing", "[0, 20]"}));
+  k["output"] = {{"surface_mesh", true}, {"surface_adaptivity", 1.5}};
+  EXPECT_TRUE(contains(error(k), {"output.surface_adaptivity", "[0, 1]"}));
+  k["output"] = {{"vtk", "yes"}};
+  EXPECT_TRUE(contains(error(k), {"output.vtk"}));
 }
 
 // The quality presets are the ones scenes/README.md's table documents: dx

@@ -103,11 +103,11 @@ TEST_F(VdbExport, GridsMetadataMassAndVelocityReadBack) {
   for (const auto& g : *all) grids[g->getName()] = g;
   file.close();
   ASSERT_EQ(grids.size(), 3u);
-  ASSERT_TRUE(grids.count("density") && grids.count("v") && grids.count("surface"));
+  ASSERT_TRUE(grids.count("density") && grids.count("vel") && grids.count("surface"));
 
   // Classes, types, voxel sizes and per-grid metadata.
   auto density = openvdb::gridPtrCast<openvdb::FloatGrid>(grids["density"]);
-  auto vel = openvdb::gridPtrCast<openvdb::Vec3SGrid>(grids["v"]);
+  auto vel = openvdb::gridPtrCast<openvdb::Vec3SGrid>(grids["vel"]);
   auto surface = openvdb::gridPtrCast<openvdb::FloatGrid>(grids["surface"]);
   ASSERT_TRUE(density && vel && surface);
   EXPECT_EQ(density->getGridClass(), openvdb::GRID_FOG_VOLUME);
@@ -119,7 +119,7 @@ TEST_F(VdbExport, GridsMetadataMassAndVelocityReadBack) {
   EXPECT_NEAR(surface->voxelSize()[1], ss.voxel_size, 1e-12);
   EXPECT_LE(ss.voxel_size, 0.5 * ss.radius + 1e-12);
   for (const auto& [name, units] : std::map<std::string, std::string>{
-           {"density", "kg/m^3"}, {"v", "m/s"}, {"surface", "m"}}) {
+           {"density", "kg/m^3"}, {"vel", "m/s"}, {"surface", "m"}}) {
     EXPECT_EQ(meta<std::string>(*grids[name], "units"), units) << name;
     EXPECT_EQ(meta<int32_t>(*grids[name], "frame"), 3) << name;
     EXPECT_EQ(meta<double>(*grids[name], "time"), 0.125) << name;
@@ -203,6 +203,44 @@ TEST_F(VdbExport, GridsMetadataMassAndVelocityReadBack) {
     EXPECT_NEAR(sb.min()[d] * hs, pb.lo[d] - reach, 2 * hs) << d;
     EXPECT_NEAR(sb.max()[d] * hs, pb.hi[d] + reach, 2 * hs) << d;
   }
+}
+
+// The level set is a narrow band of true distance, not the union of spheres
+// ParticlesToLevelSet rasterises (whose inside is all active and only a few
+// millimetres deep): inside the band it falls one metre per metre into the
+// material, and deeper in it is inactive at minus the band's width.
+TEST_F(VdbExport, SurfaceIsANarrowBandOfDistance) {
+  const fs::path dir = test::tempDir("vdb_band");
+  const World w = movingWorld(dir);
+  VdbFrameInfo info;
+  info.scene_name = "vdb_scene";
+  info.voxel_size = 0.02;
+  info.surface = true;
+  writeVolumesVdb((dir / "s.vdb").string(), w, info);
+  openvdb::io::File file((dir / "s.vdb").string());
+  file.open();
+  auto surface = openvdb::gridPtrCast<openvdb::FloatGrid>(file.readGrid("surface"));
+  file.close();
+  const double hs = surface->voxelSize()[0];
+  const auto& xf = surface->transform();
+  auto sa = surface->getConstAccessor();
+  auto at = [&](double x, double y, double z) {
+    return sa.getValue(xf.worldToIndexNodeCentered(openvdb::Vec3d(x, y, z)));
+  };
+  // The jelly cube spans y 0.05-0.17: its centre is deep inside the band.
+  const openvdb::Coord centre = xf.worldToIndexNodeCentered(openvdb::Vec3d(0.10, 0.11, 0.09));
+  EXPECT_FALSE(sa.isValueOn(centre));
+  EXPECT_NEAR(sa.getValue(centre), -3.0 * hs, 1e-6);
+  // Down through the top face, one voxel apart, both inside the band.
+  const double top = 0.17, step = hs;
+  const double slope = (at(0.10, top - 0.5 * hs, 0.09) - at(0.10, top - 0.5 * hs - step, 0.09)) / step;
+  EXPECT_NEAR(slope, 1.0, 0.15);
+  // Most of the cube's bounding box is inactive.
+  const openvdb::CoordBBox box = surface->evalActiveVoxelBoundingBox();
+  const double fraction = double(surface->activeVoxelCount()) / double(box.volume());
+  std::printf("surface: slope %.3f inside the band, %.1f%% of its bounding box active\n", slope,
+              100 * fraction);
+  EXPECT_LT(fraction, 0.6);
 }
 
 TEST_F(VdbExport, SameParticlesSameBytesAndConfigurableVoxelSize) {

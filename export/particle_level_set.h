@@ -1,0 +1,21 @@
+#pragma once
+// The particle level set shared by the VDB writer and the surface meshes.
+// Includes OpenVDB: only export/'s .cpp files include this header.
+#include <openvdb/openvdb.h>
+
+#include "export/particle_surface.h"
+
+namespace triad {
+
+// A narrow-band signed distance (negative inside, `half_width` voxels each
+// side, voxel s.voxel_size) to the union of spheres of radius s.radius
+// around the particles of `material` (-1: every material). The spheres are
+// rasterised by OpenVDB's ParticlesToLevelSet, whose values inside the union
+// are only distances to the nearest sphere (a few millimetres even deep in a
+// bed of sand); the result is rebuilt from that union's zero crossing
+// (tools::levelSetRebuild), so that it is a true distance across the band and
+// inactive inside, where offsets and filters can use it.
+openvdb::FloatGrid::Ptr particleLevelSet(const World& world, const SurfaceSampling& s,
+                                         int material, double half_width = 3.0);
+
+}  // namespace triad
