@@ -124,6 +124,12 @@ int runScene(const RunOptions& options) {
     rec.object_particles.emplace_back(scene.objects[i].name, world.object_particles[i]);
   rec.bodies = world.bodies.size();
   rec.frames_requested = scene.frames.count;
+  rec.fps = scene.frames.fps;
+  for (int m : surfaceMaterials(scene))
+    rec.material_density.emplace_back(scene.materials[size_t(m)].name,
+                                      scene.materials[size_t(m)].density);
+  rec.domain_min = scene.domain.min;
+  rec.domain_max = scene.domain.max;
 
   Solver solver(world);
   // Testing aid (tests/test_cli.cpp): force a blow-up at a given substep.

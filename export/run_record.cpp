@@ -45,7 +45,12 @@ void writeRunRecord(const std::string& path, const RunRecord& rec) {
     j["particles"]["removed"] = removed;
   }
   j["bodies"] = rec.bodies;
-  j["frames"] = {{"requested", rec.frames_requested}, {"written", rec.frames_written}};
+  j["frames"] = {{"requested", rec.frames_requested}, {"written", rec.frames_written},
+                 {"fps", rec.fps}};
+  nlohmann::ordered_json materials = nlohmann::ordered_json::object();
+  for (const auto& [name, rho] : rec.material_density) materials[name] = {{"density", rho}};
+  j["materials"] = materials;
+  j["domain"] = {{"min", rec.domain_min}, {"max", rec.domain_max}};
   j["simulated_time"] = rec.simulated_time;
   j["steps"] = rec.steps;
   j["dt"] = {{"min", rec.dt_min}, {"max", rec.dt_max}};

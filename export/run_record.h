@@ -1,5 +1,6 @@
 #pragma once
 // run.json: what ran, how long each phase took, and whether it finished.
+#include <array>
 #include <cstdint>
 #include <map>
 #include <string>
@@ -20,6 +21,12 @@ struct RunRecord {
   size_t bodies = 0;  // rigid bodies (bodies/NAME.FFFF.ply, bodies/rigid_states.csv)
   int frames_requested = 0;
   int frames_written = 0;  // frames 0..frames_written-1 are complete on disk
+  double fps = 0.0;        // frame k is at time k / fps
+  // For tools that open the cache without the scene file (the Blender
+  // add-on scales density by it and frames the domain): each MPM material's
+  // density, kg/m^3, and the domain's box, m.
+  std::vector<std::pair<std::string, double>> material_density;
+  std::array<double, 3> domain_min{0, 0, 0}, domain_max{0, 0, 0};
   double simulated_time = 0.0;
   int64_t steps = 0;
   double dt_min = 0.0, dt_max = 0.0;
