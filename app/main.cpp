@@ -6,6 +6,7 @@
 #include <string>
 
 #include "app/check_scene.h"
+#include "app/compare_caches.h"
 #include "app/render_cache.h"
 #include "app/run_scene.h"
 
@@ -58,6 +59,31 @@ int main(int argc, char** argv) {
                    "rate, step and whole-run time")
       ->check(CLI::Range(0.0, 3600.0));
 
+  triad::CompareOptions compare;
+  CLI::App* compare_cmd = app.add_subcommand(
+      "compare", "Compare two caches (or a cache and a golden folder) frame by frame: previews "
+                 "with the golden tests' pixel metric, particles by id; exit 0 within "
+                 "tolerance, 1 when a frame differs");
+  compare_cmd->add_option("cache_a", compare.a, "The cache to check")->required();
+  compare_cmd->add_option("cache_b", compare.b, "The reference cache or golden folder")->required();
+  compare_cmd->add_option("--out", compare.out, "Folder for the diff images (default CACHE_A/compare)");
+  compare_cmd->add_option("--pixel-threshold", compare.pixel_threshold,
+                          "A pixel differs when a channel differs by more than this (0-255)")
+      ->check(CLI::Range(0, 255));
+  compare_cmd->add_option("--max-fraction", compare.max_fraction,
+                          "Largest share of differing pixels a frame may have (default 0.002)")
+      ->check(CLI::Range(0.0, 1.0));
+  compare_cmd->add_option("--max-mean", compare.max_mean,
+                          "Largest mean channel difference a frame may have (0-255, default 1)")
+      ->check(CLI::Range(0.0, 255.0));
+  compare_cmd->add_option("--max-rms", compare.max_rms,
+                          "Largest RMS particle position difference, m (default 1e-4 of the "
+                          "reference's domain diagonal)")
+      ->check(CLI::NonNegativeNumber);
+  compare_cmd->add_option("--max-position", compare.max_position,
+                          "Largest single particle position difference, m (default 10 x --max-rms)")
+      ->check(CLI::NonNegativeNumber);
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -67,6 +93,7 @@ int main(int argc, char** argv) {
   }
   if (render_cmd->parsed()) return triad::renderCache(render);
   if (check_cmd->parsed()) return triad::checkScene(check);
+  if (compare_cmd->parsed()) return triad::compareCaches(compare);
   if (quiet) run.progress = triad::ProgressMode::Quiet;
   else if (plain) run.progress = triad::ProgressMode::Plain;
   return triad::runScene(run);

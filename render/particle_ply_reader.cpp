@@ -41,7 +41,7 @@ bool readIndex(const Property& prop, const char* p, long long& out) {
 
 }  // namespace
 
-void readParticlesPly(const std::string& path, PreviewFrame& frame) {
+void readParticlesPly(const std::string& path, PreviewFrame& frame, std::vector<uint32_t>* ids) {
   static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "PLY reader assumes little-endian");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path, "cannot open the particle cache");
@@ -97,18 +97,21 @@ void readParticlesPly(const std::string& path, PreviewFrame& frame) {
   }
   if (!ended) throw bad("no end_header (truncated or not a PLY file)");
   if (count < 0) throw bad("no vertex element");
-  const Property* px = nullptr, *py = nullptr, *pz = nullptr, *pobj = nullptr;
+  const Property* px = nullptr, *py = nullptr, *pz = nullptr, *pobj = nullptr, *pid = nullptr;
   for (const Property& p : props) {
     if (p.name == "x") px = &p;
     if (p.name == "y") py = &p;
     if (p.name == "z") pz = &p;
     if (p.name == "object") pobj = &p;
+    if (p.name == "id") pid = &p;
   }
   for (const Property* p : {px, py, pz})
     if (!p || (p->type != "float" && p->type != "float32"))
       throw bad("the vertex element needs float properties x, y and z");
   if (!pobj || typeSize(pobj->type) > 4 || pobj->type == "float" || pobj->type == "float32")
     throw bad("the vertex element needs an integer property 'object'");
+  if (ids && (!pid || typeSize(pid->type) != 4 || pid->type == "float" || pid->type == "float32"))
+    throw bad("the vertex element needs a 32-bit integer property 'id'");
 
   const std::streamoff data_start = in.tellg();
   in.seekg(0, std::ios::end);
@@ -122,6 +125,7 @@ void readParticlesPly(const std::string& path, PreviewFrame& frame) {
 
   frame.xyz.resize(size_t(count) * 3);
   frame.object.resize(size_t(count));
+  if (ids) ids->resize(size_t(count));
   std::vector<char> chunk;
   const size_t per_chunk = 65536;
   for (size_t done = 0; done < size_t(count);) {
@@ -140,6 +144,11 @@ void readParticlesPly(const std::string& path, PreviewFrame& frame) {
         throw bad("particle " + std::to_string(done + i) + " has object index " + std::to_string(obj) +
                   " (expected 0..65535)");
       frame.object[done + i] = uint16_t(obj);
+      if (ids) {
+        long long id = 0;
+        readIndex(*pid, rec + pid->offset, id);
+        (*ids)[done + i] = uint32_t(id);
+      }
     }
     done += n;
   }
