@@ -247,8 +247,10 @@ void writeCachePvd(const SceneDesc& scene, const std::string& out_dir, int frame
 
 }  // namespace
 
-void writeFrameCaches(const SceneDesc& scene, const std::string& out_dir, const World& world,
-                      int frame) {
+std::vector<std::pair<int, TriSurface>> writeFrameCaches(const SceneDesc& scene,
+                                                         const std::string& out_dir,
+                                                         const World& world, int frame) {
+  std::vector<std::pair<int, TriSurface>> surfaces;
   const bool vtk = scene.output.vtk;
   if (scene.output.ply) writeParticlesPly(particlesPath(out_dir, frame), world);
   if (vtk) writeParticlesVtp(frameName(vtkDir(out_dir), "particles", frame, "vtp"), world);
@@ -262,7 +264,7 @@ void writeFrameCaches(const SceneDesc& scene, const std::string& out_dir, const 
     info.surface = scene.output.vdb_surface;
     writeVolumesVdb(volumesPath(out_dir, frame), world, info);
   }
-  if (scene.output.surface_mesh) {
+  if (scene.output.surface_mesh || scene.render.style == RenderStyle::Surface) {
     SurfaceMeshSettings settings;
     settings.voxel_size =
         scene.output.vdb_voxel_size > 0 ? scene.output.vdb_voxel_size : scene.domain.dx;
@@ -270,12 +272,17 @@ void writeFrameCaches(const SceneDesc& scene, const std::string& out_dir, const 
     settings.adaptivity = scene.output.surface_adaptivity;
     for (int m : surfaceMaterials(scene)) {
       const std::string& name = scene.materials[size_t(m)].name;
-      const TriSurface mesh = materialSurfaceMesh(world, m, settings);
-      char comment[96];
-      std::snprintf(comment, sizeof(comment), "surface of material %s at t=%.9g s", name.c_str(),
-                    world.time);
-      writeSurfacePly(surfaceMeshPath(out_dir, name, frame), mesh, comment);
-      if (vtk) writeSurfaceVtp(frameName(vtkDir(out_dir) + "/surfaces", name.c_str(), frame, "vtp"), mesh);
+      TriSurface mesh = materialSurfaceMesh(world, m, settings);
+      if (scene.output.surface_mesh) {
+        char comment[96];
+        std::snprintf(comment, sizeof(comment), "surface of material %s at t=%.9g s",
+                      name.c_str(), world.time);
+        writeSurfacePly(surfaceMeshPath(out_dir, name, frame), mesh, comment);
+        if (vtk)
+          writeSurfaceVtp(frameName(vtkDir(out_dir) + "/surfaces", name.c_str(), frame, "vtp"),
+                          mesh);
+      }
+      surfaces.emplace_back(m, std::move(mesh));
     }
   }
   if (vtk) {
@@ -286,6 +293,7 @@ void writeFrameCaches(const SceneDesc& scene, const std::string& out_dir, const 
       writeSurfaceVtp(frameName(bodies, e.name.c_str(), frame, "vtp"), e.worldSurface());
     writeCachePvd(scene, out_dir, frame);
   }
+  return surfaces;
 }
 
 void writeFrameBodies(const std::string& out_dir, const World& world, int frame, BodyLogs& logs,

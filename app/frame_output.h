@@ -45,8 +45,11 @@ void makeOutputDirectories(const SceneDesc& scene, const std::string& out_dir);
 // material's surface mesh (its level set's voxel bounded by the same size),
 // and with output.vtk the same as VTK PolyData, the solids' surfaces with
 // them, and vtk/cache.pvd listing frames 0..frame.
-void writeFrameCaches(const SceneDesc& scene, const std::string& out_dir, const World& world,
-                      int frame);
+// Returns the material surfaces it made (material index, mesh): with
+// output.surface_mesh or render.style "surface", else none.
+std::vector<std::pair<int, TriSurface>> writeFrameCaches(const SceneDesc& scene,
+                                                         const std::string& out_dir,
+                                                         const World& world, int frame);
 
 // Writes the frame's rigid body caches: every body's surface, then the state
 // table with this frame's rows recorded in `logs`, and for frames after the

@@ -215,10 +215,27 @@ int runScene(const RunOptions& options) {
   auto writeFrame = [&](int frame) {
     const double t0 = omp_get_wtime();
     // Particles (PLY), volumes (VDB), rigid body meshes and states.
-    writeFrameCaches(scene, out_dir, world, frame);
+    const auto surfaces = writeFrameCaches(scene, out_dir, world, frame);
     writeFrameBodies(out_dir, world, frame, body_logs, solver.bodyLoads());
-    // The preview render (rigid bodies drawn as meshes).
-    if (preview) preview->writeFrame(world, frame);
+    // The preview render (rigid bodies drawn as meshes; with render.style
+    // "surface" the materials' surfaces instead of their particles).
+    if (preview) {
+      const bool surface_style = scene.render.style == RenderStyle::Surface;
+      std::vector<render::PreviewMesh> meshes;
+      if (surface_style)
+        for (const auto& [m, mesh] : surfaces) {
+          render::PreviewMesh pm = render::previewMesh(mesh, -1);
+          int first = 0;
+          for (size_t k = 0; k < scene.objects.size(); ++k)
+            if (scene.objects[k].kind == ObjectKind::Mpm && scene.objects[k].material == m) {
+              first = int(k);
+              break;
+            }
+          pm.color = render::materialColor(scene.materials[size_t(m)].model, first);
+          meshes.push_back(std::move(pm));
+        }
+      preview->writeFrame(world, frame, meshes, !surface_style);
+    }
     // The checkpoint, last: --resume trusts every file of a checkpointed frame.
     if (scene.output.checkpoints)
       writeFrameCheckpoint(out_dir, frame, checkpoint_key, world, solver, runSteps());

@@ -548,6 +548,8 @@ RenderDesc parseRender(const ParamDict& root) {
   auto r = root.getDict("render");
   if (!r) return out;
   out.resolution = r->getIntPair("resolution", out.resolution, Range::closed(16, 8192));
+  out.style = r->getEnum<RenderStyle>(
+      "style", out.style, {{"particles", RenderStyle::Particles}, {"surface", RenderStyle::Surface}});
   if (auto c = r->getDict("camera")) {
     CameraDesc cam;
     cam.eye = c->requireVec3("eye");

@@ -18,6 +18,11 @@ PreviewFrame previewFrameFromWorld(const World& world);
 // A world-space surface as a mesh to draw in scene object `object`'s colour.
 PreviewMesh previewMesh(const TriSurface& surface, int object);
 
+// The colour a material's surface is drawn in (render.style "surface"),
+// linear RGB: water blue, sand tan, snow white; elastic MPM materials take
+// the palette colour of `first_object`, the first object made of them.
+std::array<float, 3> materialColor(MaterialModel model, int first_object);
+
 // Thumbnails of every OUT/preview/preview.FFFF.png in frame order, labelled
 // with frame numbers, written atomically to OUT/preview/contact_sheet.png.
 // Returns the number of frames on the sheet (0: no previews, nothing written).
@@ -35,7 +40,10 @@ class PreviewWriter {
   // Renders the world's particles and rigid bodies (and `meshes`, more
   // world-space solids) and writes OUT/preview/preview.FFFF.png atomically.
   // Returns seconds spent.
-  double writeFrame(const World& world, int frame, const std::vector<PreviewMesh>& meshes = {});
+  // With `particles` false the MPM particles are not drawn (render.style
+  // "surface": `meshes` holds the materials' surfaces instead).
+  double writeFrame(const World& world, int frame, const std::vector<PreviewMesh>& meshes = {},
+                    bool particles = true);
   // Writes the contact sheet of every preview in OUT/preview. Returns seconds spent.
   double finish();
 

@@ -180,8 +180,13 @@ struct CameraDesc {
   double fov_deg = 40.0;
 };
 
+// What the preview draws MPM material as: sprites per particle, or the
+// material's surface mesh (export/particle_surface.h) in its model's colour.
+enum class RenderStyle { Particles, Surface };
+
 struct RenderDesc {
   std::array<int, 2> resolution{640, 360};
+  RenderStyle style = RenderStyle::Particles;
   std::optional<CameraDesc> camera;  // absent: frame the domain automatically
 };
 

@@ -340,5 +340,38 @@ TEST(RenderCommand, BadInputExitsTwoNamingTheFile) {
   EXPECT_NE(bad_settings.err.find("settings.json"), std::string::npos) << bad_settings.err;
 }
 
+// render.style "surface": the preview draws the water's surface mesh in
+// water's blue instead of the particles in their object's palette colour.
+TEST(RenderStyle, SurfaceDrawsWaterAsItsSurfaceInBlue) {
+  const fs::path dir = test::tempDir("style");
+  json j = test::baseScene("style", {0.4, 0.3, 0.3}, 0.025);
+  j["frames"] = {{"count", 1}, {"fps", 24}};
+  j["materials"] = {{"water", {{"model", "water"}, {"density", 1000}, {"bulk_modulus", 1e5}}}};
+  j["objects"] = {{{"name", "pool"}, {"kind", "mpm"}, {"material", "water"},
+                   {"shape", test::box({0.05, 0.0, 0.05}, {0.35, 0.12, 0.25})}}};
+  j["output"] = {{"vdb", false}, {"ply", false}, {"checkpoints", false}};
+  j["render"] = {{"resolution", {160, 90}}};
+  auto bluish = [&](const std::string& style) {
+    j["render"]["style"] = style;
+    const fs::path out = dir / style;
+    const test::CliResult r = test::runTriad(
+        dir, "run " + test::writeScene(dir, j, style + ".json") + " --out " + out.string() + " --quiet");
+    EXPECT_EQ(r.status, 0) << r.err;
+    const Image img = readPng((out / "preview/preview.0000.png").string());
+    size_t n = 0;
+    for (int y = 0; y < img.height; ++y)
+      for (int x = 0; x < img.width; ++x) {
+        const uint8_t* p = img.at(x, y);
+        if (p[2] > 3 * p[0] && p[2] > p[1] + 40) ++n;
+      }
+    return double(n) / double(img.width * img.height);
+  };
+  const double surface = bluish("surface"), particles = bluish("particles");
+  std::printf("water-blue pixels: surface style %.1f%%, particle style %.1f%%\n", 100 * surface,
+              100 * particles);
+  EXPECT_GT(surface, 0.05);
+  EXPECT_LT(particles, 0.005);
+}
+
 }  // namespace
 }  // namespace triad

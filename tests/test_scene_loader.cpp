@@ -415,6 +415,7 @@ TEST_F(SceneLoaderTest, DefaultsAreTheDocumentedOnes) {
        [](const SceneDesc& s) { return json(s.output.checkpoints); }},
       {"render", "resolution", "/render/resolution",
        [](const SceneDesc& s) { return json(s.render.resolution); }},
+      {"render", "style", "/render/style", [](const SceneDesc& s) { return json(int(s.render.style)); }},
   };
   const SceneDesc without = load(base);
   for (const Case& c : cases) {
