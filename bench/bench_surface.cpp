@@ -1,6 +1,8 @@
-// Cost of the material surfaces a frame writes: the narrow-band level set
-// `surface` (particles to spheres, rebuilt to a distance) and the surface
-// mesh of each material (level set, erosion, smoothing, volume-to-mesh).
+// Cost of what a frame writes for renderers and ParaView: the narrow-band
+// level set `surface` (particles to spheres, rebuilt to a distance), the
+// surface mesh of each material (level set, erosion, smoothing,
+// volume-to-mesh), and the particles as PLY and as VTK PolyData (written to
+// the system's temporary folder).
 //   build/bench/bench_surface SCENE.json [--time SECONDS] [--repeat N]
 // simulates the scene to --time (default 0: the particles as sampled), then
 // times each, N times (default 3), and prints the medians.
@@ -9,11 +11,14 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <string>
 #include <vector>
 
 #include "export/particle_level_set.h"
 #include "export/particle_surface.h"
+#include "export/ply_writer.h"
+#include "export/vtk_writer.h"
 #include "import/mesh_sampler.h"
 #include "import/scene_loader.h"
 #include "sim/solver.h"
@@ -53,7 +58,8 @@ int main(int argc, char** argv) {
   const double voxel = scene.output.vdb_voxel_size > 0 ? scene.output.vdb_voxel_size : scene.domain.dx;
   size_t particles = 0;
   for (const ParticleSet& s : world.sets) particles += s.size();
-  std::vector<double> t_set, t_mesh;
+  std::vector<double> t_set, t_mesh, t_ply, t_vtp;
+  const std::string tmp = std::filesystem::temp_directory_path().string();
   size_t active = 0, triangles = 0;
   for (int r = 0; r < repeat; ++r) {
     const auto t0 = std::chrono::steady_clock::now();
@@ -65,13 +71,22 @@ int main(int argc, char** argv) {
     for (size_t m = 0; m < scene.materials.size(); ++m)
       triangles += materialSurfaceMesh(world, int(m), settings).triangles.size();
     const auto t2 = std::chrono::steady_clock::now();
+    writeParticlesPly(tmp + "/bench_surface.ply", world);
+    const auto t3 = std::chrono::steady_clock::now();
+    writeParticlesVtp(tmp + "/bench_surface.vtp", world);
+    const auto t4 = std::chrono::steady_clock::now();
     t_set.push_back(seconds(t0, t1));
     t_mesh.push_back(seconds(t1, t2));
+    t_ply.push_back(seconds(t2, t3));
+    t_vtp.push_back(seconds(t3, t4));
     active = size_t(ls->activeVoxelCount());
   }
   std::printf("%s at t = %.3f s: %zu particles\n", scene.name.c_str(), world.time, particles);
   std::printf("level set `surface`: %.3f s (median of %d), %zu active voxels of %.4g m\n",
               median(t_set), repeat, active, surfaceSampling(world, voxel).voxel_size);
   std::printf("surface meshes: %.3f s, %zu triangles\n", median(t_mesh), triangles);
+  std::printf("particles: PLY %.3f s, VTK %.3f s\n", median(t_ply), median(t_vtp));
+  std::filesystem::remove(tmp + "/bench_surface.ply");
+  std::filesystem::remove(tmp + "/bench_surface.vtp");
   return 0;
 }
