@@ -12,9 +12,10 @@ namespace triad {
 // around the particles of `material` (-1: every material). The spheres are
 // rasterised by OpenVDB's ParticlesToLevelSet, whose values inside the union
 // are only distances to the nearest sphere (a few millimetres even deep in a
-// bed of sand); the result is rebuilt from that union's zero crossing
-// (tools::levelSetRebuild), so that it is a true distance across the band and
-// inactive inside, where offsets and filters can use it.
+// bed of sand); the distance is solved again from that union's zero crossing
+// (fast sweeping, tools::sdfToSdf) and cut to the band, so that it is a true
+// distance across the band and inactive inside, where offsets and filters
+// can use it.
 openvdb::FloatGrid::Ptr particleLevelSet(const World& world, const SurfaceSampling& s,
                                          int material, double half_width = 3.0);
 

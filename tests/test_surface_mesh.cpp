@@ -85,7 +85,7 @@ TEST(SurfaceMesh, ClosedOutwardAndTheMaterialsVolume) {
 
   // The eroded spheres' surface lies on the block's faces: its volume is the
   // block's (0.2 x 0.1 x 0.24 m) and the sphere's, within 3% (measured
-  // 0.972 and 1.004; the block's rounded edges take the rest). Without the
+  // 0.974 and 1.016; the block's rounded edges take the rest). Without the
   // erosion they come out 7% and 12% too large, eroded by the spheres' peak
   // height (0.366 spacings) 6.7% and 3.9% short; wound the other way, negative.
   const double block = 0.2 * 0.1 * 0.24, ball = 4.0 / 3.0 * M_PI * std::pow(0.08, 3);

@@ -234,7 +234,7 @@ TEST_F(VdbExport, SurfaceIsANarrowBandOfDistance) {
   // Down through the top face, one voxel apart, both inside the band.
   const double top = 0.17, step = hs;
   const double slope = (at(0.10, top - 0.5 * hs, 0.09) - at(0.10, top - 0.5 * hs - step, 0.09)) / step;
-  EXPECT_NEAR(slope, 1.0, 0.15);
+  EXPECT_NEAR(slope, 1.0, 0.1);
   // Most of the cube's bounding box is inactive.
   const openvdb::CoordBBox box = surface->evalActiveVoxelBoundingBox();
   const double fraction = double(surface->activeVoxelCount()) / double(box.volume());
