@@ -48,7 +48,8 @@ double defaultRms(const fs::path& cache) {
     const nlohmann::json j = nlohmann::json::parse(in);
     double d2 = 0.0;
     for (int k = 0; k < 3; ++k) {
-      const double e = j.at("domain").at("max")[k].get<double>() - j.at("domain").at("min")[k].get<double>();
+      const double e =
+          j.at("domain").at("max")[k].get<double>() - j.at("domain").at("min")[k].get<double>();
       d2 += e * e;
     }
     return d2 > 0.0 ? 1e-4 * std::sqrt(d2) : 1e-4;
@@ -102,7 +103,8 @@ int compareCaches(const CompareOptions& o) {
   try {
     for (const std::string& dir : {o.a, o.b})
       if (!fs::is_directory(dir))
-        throw InputError(dir, "no such cache directory (expected a run's output or a golden folder)");
+        throw InputError(dir,
+                         "no such cache directory (expected a run's output or a golden folder)");
     const fs::path a(o.a), b(o.b);
     const fs::path out = o.out.empty() ? a / "compare" : fs::path(o.out);
     const double max_rms = o.max_rms >= 0 ? o.max_rms : defaultRms(b);
@@ -116,17 +118,21 @@ int compareCaches(const CompareOptions& o) {
     // caches hold particle files at all (a golden folder may keep previews only).
     const bool particles = !qa.empty() && !qb.empty();
     std::set<int> frames;
-    for (const auto* m : {&pa, &pb}) for (const auto& [f, p] : *m) frames.insert(f);
-    if (particles) for (const auto* m : {&qa, &qb}) for (const auto& [f, p] : *m) frames.insert(f);
+    for (const auto* m : {&pa, &pb})
+      for (const auto& [f, p] : *m) frames.insert(f);
+    if (particles)
+      for (const auto* m : {&qa, &qb})
+        for (const auto& [f, p] : *m) frames.insert(f);
     if (frames.empty())
       throw InputError(o.b, "nothing to compare: neither cache has preview/preview.FFFF.png files" +
                                 std::string(particles ? "" : " or particles in both"));
     makeDirectories(out.string());
 
-    std::printf("compare %s against %s: pixel threshold %d, at most %.3g%% of pixels and a mean "
-                "of %.3g; particles RMS %.3g m, largest %.3g m\n",
-                o.a.c_str(), o.b.c_str(), o.pixel_threshold, 100 * o.max_fraction, o.max_mean,
-                max_rms, max_position);
+    std::printf(
+        "compare %s against %s: pixel threshold %d, at most %.3g%% of pixels and a mean "
+        "of %.3g; particles RMS %.3g m, largest %.3g m\n",
+        o.a.c_str(), o.b.c_str(), o.pixel_threshold, 100 * o.max_fraction, o.max_mean, max_rms,
+        max_position);
     std::vector<render::Image> diffs;
     std::vector<int> labels;
     int failed = 0;
@@ -170,12 +176,14 @@ int compareCaches(const CompareOptions& o) {
           ok = false;
         } else {
           const ParticleDiff d = compareParticles(ja->second, jb->second);
-          const bool pass = d.only_a == 0 && d.only_b == 0 && d.rms <= max_rms && d.max <= max_position;
-          std::snprintf(buf, sizeof(buf), "  particles: %zu matched, rms %.3g m, max %.3g m", d.matched,
-                        d.rms, d.max);
+          const bool pass =
+              d.only_a == 0 && d.only_b == 0 && d.rms <= max_rms && d.max <= max_position;
+          std::snprintf(buf, sizeof(buf), "  particles: %zu matched, rms %.3g m, max %.3g m",
+                        d.matched, d.rms, d.max);
           line += buf;
           if (d.only_a || d.only_b) {
-            std::snprintf(buf, sizeof(buf), ", ids only in A %zu, only in B %zu", d.only_a, d.only_b);
+            std::snprintf(buf, sizeof(buf), ", ids only in A %zu, only in B %zu", d.only_a,
+                          d.only_b);
             line += buf;
           }
           if (!pass) line += " (over)";

@@ -55,7 +55,8 @@ int main(int argc, char** argv) {
   Solver solver(world);
   if (until > 0) solver.advanceTo(until);
 
-  const double voxel = scene.output.vdb_voxel_size > 0 ? scene.output.vdb_voxel_size : scene.domain.dx;
+  const double voxel =
+      scene.output.vdb_voxel_size > 0 ? scene.output.vdb_voxel_size : scene.domain.dx;
   size_t particles = 0;
   for (const ParticleSet& s : world.sets) particles += s.size();
   std::vector<double> t_set, t_mesh, t_ply, t_vtp;

@@ -1,8 +1,8 @@
 #include "export/particle_level_set.h"
 
 #include <openvdb/tools/FastSweeping.h>
-#include <openvdb/tools/Prune.h>
 #include <openvdb/tools/ParticlesToLevelSet.h>
+#include <openvdb/tools/Prune.h>
 
 #include <algorithm>
 #include <cmath>
@@ -78,9 +78,10 @@ SurfaceSampling surfaceSampling(const World& world, double density_voxel_size, i
   return s;
 }
 
-openvdb::FloatGrid::Ptr particleLevelSet(const World& world, const SurfaceSampling& s,
-                                         int material, double half_width) {
-  openvdb::FloatGrid::Ptr ls = openvdb::createLevelSet<openvdb::FloatGrid>(s.voxel_size, half_width);
+openvdb::FloatGrid::Ptr particleLevelSet(const World& world, const SurfaceSampling& s, int material,
+                                         double half_width) {
+  openvdb::FloatGrid::Ptr ls =
+      openvdb::createLevelSet<openvdb::FloatGrid>(s.voxel_size, half_width);
   const ParticleSpheres spheres(world, material);
   if (spheres.size() == 0) return ls;
 

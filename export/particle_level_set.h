@@ -16,7 +16,7 @@ namespace triad {
 // (fast sweeping, tools::sdfToSdf) and cut to the band, so that it is a true
 // distance across the band and inactive inside, where offsets and filters
 // can use it.
-openvdb::FloatGrid::Ptr particleLevelSet(const World& world, const SurfaceSampling& s,
-                                         int material, double half_width = 3.0);
+openvdb::FloatGrid::Ptr particleLevelSet(const World& world, const SurfaceSampling& s, int material,
+                                         double half_width = 3.0);
 
 }  // namespace triad

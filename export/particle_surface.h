@@ -41,6 +41,7 @@ struct SurfaceMeshSettings {
 // The closed, outward-wound (counter-clockwise seen from outside) triangle
 // surface of `material`'s particles, world space. Empty when the material
 // has no particles.
-TriSurface materialSurfaceMesh(const World& world, int material, const SurfaceMeshSettings& settings);
+TriSurface materialSurfaceMesh(const World& world, int material,
+                               const SurfaceMeshSettings& settings);
 
 }  // namespace triad

@@ -41,8 +41,8 @@ void sequentialCells(size_t n, int per, std::vector<int64_t>& connectivity,
 // A PolyData file of one piece: points, point data, and one cell section
 // (`Verts` or `Polys`) given by its two arrays.
 void writePolyData(const std::string& path, size_t points, const Array& positions,
-                   const std::vector<Array>& point_data, const std::string& cell_kind,
-                   size_t cells, const Array& connectivity, const Array& offsets) {
+                   const std::vector<Array>& point_data, const std::string& cell_kind, size_t cells,
+                   const Array& connectivity, const Array& offsets) {
   static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "VTK writer assumes little-endian");
   writeFileAtomically(path, [&](std::ostream& out) {
     uint64_t offset = 0;
@@ -84,11 +84,16 @@ void writePolyData(const std::string& path, size_t points, const Array& position
 std::string xmlEscaped(const std::string& s) {
   std::string out;
   for (char c : s) {
-    if (c == '&') out += "&amp;";
-    else if (c == '<') out += "&lt;";
-    else if (c == '>') out += "&gt;";
-    else if (c == '"') out += "&quot;";
-    else out += c;
+    if (c == '&')
+      out += "&amp;";
+    else if (c == '<')
+      out += "&lt;";
+    else if (c == '>')
+      out += "&gt;";
+    else if (c == '"')
+      out += "&quot;";
+    else
+      out += c;
   }
   return out;
 }

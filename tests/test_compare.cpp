@@ -19,9 +19,14 @@ using nlohmann::json;
 json dropScene(double x0) {
   json j = test::baseScene("drop", {0.4, 0.4, 0.4}, 0.04);
   j["frames"] = {{"count", 2}, {"fps", 24}};
-  j["materials"] = {{"jelly", {{"model", "fixed_corotated"}, {"density", 1000},
-                               {"youngs_modulus", 2e4}, {"poisson_ratio", 0.3}}}};
-  j["objects"] = {{{"name", "block"}, {"kind", "mpm"}, {"material", "jelly"},
+  j["materials"] = {{"jelly",
+                     {{"model", "fixed_corotated"},
+                      {"density", 1000},
+                      {"youngs_modulus", 2e4},
+                      {"poisson_ratio", 0.3}}}};
+  j["objects"] = {{{"name", "block"},
+                   {"kind", "mpm"},
+                   {"material", "jelly"},
                    {"shape", test::box({x0, 0.12, 0.12}, {x0 + 0.12, 0.24, 0.24})}}};
   j["output"] = {{"vdb", false}, {"checkpoints", false}};
   j["render"] = {{"resolution", {96, 64}}};
@@ -58,8 +63,8 @@ TEST(Compare, EqualRunsPassMovedBlockFailsFrameByFrame) {
 
   // Moved by two cells: frame 0 already differs, in pixels and positions
   // (0.08 m for every particle), and the exit status says so.
-  r = test::runTriad(dir, "compare " + moved.string() + " " + a.string() + " --out " +
-                              (dir / "diffs").string());
+  r = test::runTriad(
+      dir, "compare " + moved.string() + " " + a.string() + " --out " + (dir / "diffs").string());
   EXPECT_EQ(r.status, 1) << r.out << r.err;
   EXPECT_EQ(count(r.out, "DIFFERS"), 3u) << r.out;
   std::smatch m;
@@ -80,8 +85,10 @@ TEST(Compare, GoldenFolderOfPreviewsAndBadInput) {
   // A golden folder: the previews only.
   fs::create_directories(dir / "golden" / "preview");
   for (const auto& e : fs::directory_iterator(a / "preview"))
-    if (e.path().extension() == ".png") fs::copy(e.path(), dir / "golden" / "preview" / e.path().filename());
-  test::CliResult r = test::runTriad(dir, "compare " + a.string() + " " + (dir / "golden").string());
+    if (e.path().extension() == ".png")
+      fs::copy(e.path(), dir / "golden" / "preview" / e.path().filename());
+  test::CliResult r =
+      test::runTriad(dir, "compare " + a.string() + " " + (dir / "golden").string());
   EXPECT_EQ(r.status, 0) << r.out << r.err;
   EXPECT_EQ(r.out.find("particles:"), std::string::npos) << r.out;
   // A frame the reference lacks is a difference.

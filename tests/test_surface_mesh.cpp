@@ -4,8 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <array>
-#include <cstdio>
 #include <cmath>
+#include <cstdio>
 #include <map>
 #include <utility>
 
@@ -20,15 +20,21 @@ using nlohmann::json;
 // A water block and a sand ball, apart, at dx 0.02 (8 particles a cell).
 World twoMaterials() {
   json j = test::baseScene("surfaces", {0.5, 0.4, 0.4}, 0.02);
-  j["materials"] = {
-      {"water", {{"model", "water"}, {"density", 1000}, {"bulk_modulus", 1e5}}},
-      {"sand", {{"model", "drucker_prager"}, {"density", 1600}, {"youngs_modulus", 1e6},
-                {"poisson_ratio", 0.3}, {"friction_angle_deg", 30}}}};
-  j["objects"] = {
-      {{"name", "pool"}, {"kind", "mpm"}, {"material", "water"},
-       {"shape", test::box({0.04, 0.04, 0.06}, {0.24, 0.14, 0.30})}},
-      {{"name", "pile"}, {"kind", "mpm"}, {"material", "sand"},
-       {"shape", {{"sphere", {{"center", {0.36, 0.2, 0.2}}, {"radius", 0.08}}}}}}};
+  j["materials"] = {{"water", {{"model", "water"}, {"density", 1000}, {"bulk_modulus", 1e5}}},
+                    {"sand",
+                     {{"model", "drucker_prager"},
+                      {"density", 1600},
+                      {"youngs_modulus", 1e6},
+                      {"poisson_ratio", 0.3},
+                      {"friction_angle_deg", 30}}}};
+  j["objects"] = {{{"name", "pool"},
+                   {"kind", "mpm"},
+                   {"material", "water"},
+                   {"shape", test::box({0.04, 0.04, 0.06}, {0.24, 0.14, 0.30})}},
+                  {{"name", "pile"},
+                   {"kind", "mpm"},
+                   {"material", "sand"},
+                   {"shape", {{"sphere", {{"center", {0.36, 0.2, 0.2}}, {"radius", 0.08}}}}}}};
   return test::loadWorld(test::tempDir("world"), j);
 }
 
