@@ -550,6 +550,7 @@ RenderDesc parseRender(const ParamDict& root) {
   out.resolution = r->getIntPair("resolution", out.resolution, Range::closed(16, 8192));
   out.style = r->getEnum<RenderStyle>(
       "style", out.style, {{"particles", RenderStyle::Particles}, {"surface", RenderStyle::Surface}});
+  out.legend = r->getBool("legend", out.legend);
   if (auto c = r->getDict("camera")) {
     CameraDesc cam;
     cam.eye = c->requireVec3("eye");

@@ -63,20 +63,45 @@ Image resizeDown(const Image& src, int width, int height) {
 }
 
 namespace {
-// 3x5 glyphs of the digits, one row per 3 bits (MSB left), top row first.
+// 3x5 glyphs, one row per 3 bits (MSB left), top row first.
 constexpr uint8_t kDigits[10][5] = {
     {7, 5, 5, 5, 7}, {2, 6, 2, 2, 7}, {7, 1, 7, 4, 7}, {7, 1, 7, 1, 7}, {5, 5, 7, 1, 1},
     {7, 4, 7, 1, 7}, {7, 4, 7, 5, 7}, {7, 1, 1, 1, 1}, {7, 5, 7, 5, 7}, {7, 5, 7, 1, 7}};
+constexpr uint8_t kLetters[26][5] = {
+    {2, 5, 7, 5, 5}, {6, 5, 6, 5, 6}, {3, 4, 4, 4, 3}, {6, 5, 5, 5, 6}, {7, 4, 6, 4, 7},
+    {7, 4, 6, 4, 4}, {3, 4, 5, 5, 3}, {5, 5, 7, 5, 5}, {7, 2, 2, 2, 7}, {1, 1, 1, 5, 2},
+    {5, 5, 6, 5, 5}, {4, 4, 4, 4, 7}, {5, 7, 7, 5, 5}, {6, 5, 5, 5, 5}, {2, 5, 5, 5, 2},
+    {6, 5, 6, 4, 4}, {2, 5, 5, 6, 3}, {6, 5, 6, 5, 5}, {3, 4, 2, 1, 6}, {7, 2, 2, 2, 2},
+    {5, 5, 5, 5, 7}, {5, 5, 5, 5, 2}, {5, 5, 7, 7, 5}, {5, 5, 2, 5, 5}, {5, 5, 2, 2, 2},
+    {7, 1, 2, 4, 7}};
+constexpr uint8_t kSpace[5] = {0, 0, 0, 0, 0}, kDash[5] = {0, 0, 7, 0, 0},
+                  kUnderscore[5] = {0, 0, 0, 0, 7}, kDot[5] = {0, 0, 0, 0, 2},
+                  kUnknown[5] = {7, 1, 2, 0, 2};
+
+const uint8_t* glyph(char c) {
+  if (c >= '0' && c <= '9') return kDigits[c - '0'];
+  if (c >= 'a' && c <= 'z') return kLetters[c - 'a'];
+  if (c >= 'A' && c <= 'Z') return kLetters[c - 'A'];
+  if (c == ' ') return kSpace;
+  if (c == '-') return kDash;
+  if (c == '_') return kUnderscore;
+  if (c == '.') return kDot;
+  return kUnknown;
+}
 }  // namespace
 
 void drawNumber(Image& img, int x, int y, int number, int scale, const uint8_t color[3]) {
-  const std::string digits = std::to_string(number < 0 ? -number : number);
-  for (size_t k = 0; k < digits.size(); ++k) {
-    const int d = digits[k] - '0';
+  drawText(img, x, y, std::to_string(number < 0 ? -number : number), scale, color);
+}
+
+void drawText(Image& img, int x, int y, const std::string& text, int scale,
+              const uint8_t color[3]) {
+  for (size_t k = 0; k < text.size(); ++k) {
+    const uint8_t* g = glyph(text[k]);
     const int gx = x + int(k) * 4 * scale;
     for (int row = 0; row < 5; ++row)
       for (int col = 0; col < 3; ++col) {
-        if (!((kDigits[d][row] >> (2 - col)) & 1)) continue;
+        if (!((g[row] >> (2 - col)) & 1)) continue;
         for (int py = 0; py < scale; ++py)
           for (int px = 0; px < scale; ++px) {
             const int ix = gx + col * scale + px, iy = y + row * scale + py;
@@ -84,6 +109,33 @@ void drawNumber(Image& img, int x, int y, int number, int scale, const uint8_t c
             std::copy(color, color + 3, img.at(ix, iy));
           }
       }
+  }
+}
+
+void drawLegend(Image& img, const std::vector<LegendEntry>& entries) {
+  if (entries.empty() || img.empty()) return;
+  const int scale = img.height > 400 ? 2 : 1;
+  const int line = 7 * scale, pad = 2 * scale, swatch = 5 * scale;
+  size_t longest = 0;
+  for (const LegendEntry& e : entries) longest = std::max(longest, e.label.size());
+  const int w = std::min(img.width, pad * 3 + swatch + int(longest) * 4 * scale);
+  const int h = std::min(img.height, pad * 2 + int(entries.size()) * line);
+  // A dark panel, half blended over the picture.
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      uint8_t* p = img.at(x, y);
+      for (int c = 0; c < 3; ++c) p[c] = uint8_t(p[c] / 4 + 16);
+    }
+  const uint8_t text[3] = {235, 235, 235};
+  for (size_t i = 0; i < entries.size(); ++i) {
+    const int y0 = pad + int(i) * line;
+    if (y0 + swatch > img.height) break;
+    uint8_t rgb[3];
+    for (int c = 0; c < 3; ++c)
+      rgb[c] = uint8_t(std::clamp(std::lround(entries[i].color[size_t(c)] * 255.0f), 0L, 255L));
+    for (int y = 0; y < swatch; ++y)
+      for (int x = 0; x < swatch && pad + x < img.width; ++x) std::copy(rgb, rgb + 3, img.at(pad + x, y0 + y));
+    drawText(img, pad * 2 + swatch, y0, entries[i].label, scale, text);
   }
 }
 

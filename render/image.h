@@ -3,7 +3,9 @@
 // operations of the preview renderer: box downsampling of a supersampled
 // render, thumbnails and contact sheets, and the comparison metric of the
 // golden-image tests.
+#include <array>
 #include <cstddef>
+#include <string>
 #include <cstdint>
 #include <vector>
 
@@ -32,6 +34,20 @@ Image resizeDown(const Image& src, int width, int height);
 // Draws `number` in a small 3x5 bitmap font, scaled by `scale`, with its top
 // left corner at (x, y), clipped to the image.
 void drawNumber(Image& img, int x, int y, int number, int scale, const uint8_t color[3]);
+// The same for text: letters (drawn upper case), digits, space and - _ . ;
+// other characters are drawn as '?'. Each character advances 4 * scale.
+void drawText(Image& img, int x, int y, const std::string& text, int scale,
+              const uint8_t color[3]);
+
+// One line of a preview's legend: a colour swatch (linear 0..1, as the
+// renderer's colours) and its label.
+struct LegendEntry {
+  std::string label;
+  std::array<float, 3> color{0.7f, 0.7f, 0.7f};
+};
+// Draws the entries in the top left corner on a dark panel, one per line,
+// scaled to the image's height (1 up to 400 pixels, 2 above).
+void drawLegend(Image& img, const std::vector<LegendEntry>& entries);
 
 // Thumbnails of `frames` laid out in a grid, left to right then top to bottom,
 // each labelled with its number from `labels` (same length, or empty for none).

@@ -432,7 +432,9 @@ struct PreviewRenderer::Impl {
     glPixelStorei(GL_PACK_ALIGNMENT, 1);
     glReadPixels(0, 0, fb_w, fb_h, GL_RGBA, GL_UNSIGNED_BYTE, pixels.data());
     checkGl("preview render");
-    return downsampleRgbaBottomUp(pixels.data(), s.width, s.height, s.supersample);
+    Image image = downsampleRgbaBottomUp(pixels.data(), s.width, s.height, s.supersample);
+    drawLegend(image, s.legend);
+    return image;
   }
 };
 

@@ -27,6 +27,7 @@ struct PreviewSettings {
   float particle_radius = 0.005f;         // m, drawn sphere radius
   std::vector<std::string> object_names;  // scene objects, by index (for messages and legends)
   bool domain_outline = true;
+  std::vector<LegendEntry> legend;  // drawn in the top left corner; empty: none
 };
 
 // A world-space triangle mesh (a rigid or elastic body's surface).

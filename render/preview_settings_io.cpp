@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -45,6 +46,15 @@ struct Reader {
 
 }  // namespace
 
+std::array<float, 3> materialColor(MaterialModel model, int first_object) {
+  switch (model) {
+    case MaterialModel::Water: return {0.10f, 0.33f, 0.80f};
+    case MaterialModel::DruckerPrager: return {0.72f, 0.56f, 0.33f};
+    case MaterialModel::Snow: return {0.90f, 0.92f, 0.95f};
+    default: return objectColor(first_object);
+  }
+}
+
 PreviewSettings previewSettingsForScene(const SceneDesc& scene) {
   PreviewSettings s;
   s.width = scene.render.resolution[0];
@@ -59,6 +69,32 @@ PreviewSettings previewSettingsForScene(const SceneDesc& scene) {
   }
   s.particle_radius = particleRadius(scene.domain.dx, scene.solver.particles_per_cell);
   for (const ObjectDesc& o : scene.objects) s.object_names.push_back(o.name);
+
+  // The legend: what is drawn, in the colour it is drawn in.
+  const bool surfaces = scene.render.style == RenderStyle::Surface;
+  std::vector<LegendEntry> legend;
+  std::vector<int> materials_listed;
+  for (size_t k = 0; k < scene.objects.size(); ++k) {
+    const ObjectDesc& o = scene.objects[k];
+    if (o.kind == ObjectKind::Sink) continue;
+    if (o.kind == ObjectKind::Mpm && surfaces) {
+      if (std::find(materials_listed.begin(), materials_listed.end(), o.material) !=
+          materials_listed.end())
+        continue;
+      materials_listed.push_back(o.material);
+      const MaterialDesc& m = scene.materials[size_t(o.material)];
+      legend.push_back({m.name, materialColor(m.model, int(k))});
+    } else {
+      legend.push_back({o.name, objectColor(int(k))});
+    }
+  }
+  constexpr size_t kMaxLines = 12;
+  if (legend.size() > kMaxLines) {
+    const size_t more = legend.size() - (kMaxLines - 1);
+    legend.resize(kMaxLines - 1);
+    legend.push_back({"+" + std::to_string(more) + " more", {0.0f, 0.0f, 0.0f}});
+  }
+  if (scene.render.legend) s.legend = std::move(legend);
   return s;
 }
 
@@ -95,6 +131,9 @@ void writePreviewSettings(const std::string& out_dir, const PreviewSettings& s,
   j["particle_radius"] = s.particle_radius;
   j["domain_outline"] = s.domain_outline;
   j["objects"] = s.object_names;
+  json legend = json::array();
+  for (const LegendEntry& e : s.legend) legend.push_back({{"label", e.label}, {"color", e.color}});
+  j["legend"] = legend;
   const std::string tmp = path + ".tmp" + std::to_string(::getpid());
   {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
@@ -157,6 +196,18 @@ PreviewSettings readPreviewSettings(const std::string& path) {
     for (const json& o : objs) {
       if (!o.is_string()) r.bad("objects", "expected an array of names");
       s.object_names.push_back(o.get<std::string>());
+    }
+  }
+  if (j.contains("legend")) {
+    const json& entries = j["legend"];
+    if (!entries.is_array()) r.bad("legend", "expected an array of {label, color}");
+    for (size_t i = 0; i < entries.size(); ++i) {
+      const std::string at = "legend[" + std::to_string(i) + "]";
+      const json& e = entries[i];
+      if (!e.is_object() || !e.contains("label") || !e["label"].is_string())
+        r.bad(at, "expected {\"label\": string, \"color\": [r, g, b]}");
+      const Vec3 c = r.vec3(r.get(e, "color", at + ".color"), at + ".color");
+      s.legend.push_back({e["label"].get<std::string>(), {float(c[0]), float(c[1]), float(c[2])}});
     }
   }
   return s;

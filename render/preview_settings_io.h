@@ -11,8 +11,15 @@ namespace triad::render {
 
 // Resolution and camera from the scene's `render` block (automatic camera
 // when absent), the domain box, the drawn particle radius from dx and
-// particles_per_cell, and every object's name.
+// particles_per_cell, every object's name, and the legend: each drawn MPM
+// object (render.style "particles") or material ("surface") and each solid,
+// in its colour (at most 12 lines, the last saying how many more).
 PreviewSettings previewSettingsForScene(const SceneDesc& scene);
+
+// The colour a material's surface is drawn in (render.style "surface"),
+// linear RGB: water blue, sand tan, snow white; elastic MPM materials take
+// the palette colour of `first_object`, the first object made of them.
+std::array<float, 3> materialColor(MaterialModel model, int first_object);
 
 // `OUT/preview/settings.json` and `OUT/preview/preview.FFFF.png`.
 std::string previewSettingsPath(const std::string& out_dir);

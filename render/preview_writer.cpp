@@ -77,15 +77,6 @@ PreviewWriter::PreviewWriter(const SceneDesc& scene, const std::string& out_dir)
 
 PreviewWriter::~PreviewWriter() = default;
 
-std::array<float, 3> materialColor(MaterialModel model, int first_object) {
-  switch (model) {
-    case MaterialModel::Water: return {0.10f, 0.33f, 0.80f};
-    case MaterialModel::DruckerPrager: return {0.72f, 0.56f, 0.33f};
-    case MaterialModel::Snow: return {0.90f, 0.92f, 0.95f};
-    default: return objectColor(first_object);
-  }
-}
-
 double PreviewWriter::writeFrame(const World& world, int frame,
                                  const std::vector<PreviewMesh>& meshes, bool particles) {
   const auto t0 = std::chrono::steady_clock::now();

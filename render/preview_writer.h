@@ -18,10 +18,6 @@ PreviewFrame previewFrameFromWorld(const World& world);
 // A world-space surface as a mesh to draw in scene object `object`'s colour.
 PreviewMesh previewMesh(const TriSurface& surface, int object);
 
-// The colour a material's surface is drawn in (render.style "surface"),
-// linear RGB: water blue, sand tan, snow white; elastic MPM materials take
-// the palette colour of `first_object`, the first object made of them.
-std::array<float, 3> materialColor(MaterialModel model, int first_object);
 
 // Thumbnails of every OUT/preview/preview.FFFF.png in frame order, labelled
 // with frame numbers, written atomically to OUT/preview/contact_sheet.png.

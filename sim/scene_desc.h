@@ -187,6 +187,7 @@ enum class RenderStyle { Particles, Surface };
 struct RenderDesc {
   std::array<int, 2> resolution{640, 360};
   RenderStyle style = RenderStyle::Particles;
+  bool legend = true;  // names and colours of what is drawn, top left
   std::optional<CameraDesc> camera;  // absent: frame the domain automatically
 };
 

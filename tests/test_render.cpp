@@ -267,6 +267,58 @@ TEST(Render, RejectsUnusableSettings) {
   EXPECT_THROW(PreviewRenderer{s}, std::runtime_error);
 }
 
+// The legend lists what is drawn, in the colour it is drawn in: each MPM
+// object (or, in surface style, each material once) and each solid, never a
+// sink; it survives settings.json, and drawLegend paints its swatches.
+TEST(PreviewLegend, WhatIsDrawnInItsColour) {
+  const fs::path dir = test::tempDir("legend");
+  nlohmann::json j = test::baseScene("legend", {1, 0.5, 0.5}, 0.05);
+  j["materials"] = {
+      {"water", {{"model", "water"}, {"density", 1000}, {"bulk_modulus", 1e5}}},
+      {"sand", {{"model", "drucker_prager"}, {"density", 1600}, {"youngs_modulus", 1e6},
+                {"poisson_ratio", 0.3}}}};
+  j["objects"] = {
+      {{"name", "pool"}, {"kind", "mpm"}, {"material", "water"},
+       {"shape", test::box({0.1, 0, 0.1}, {0.3, 0.1, 0.3})}},
+      {{"name", "pond"}, {"kind", "mpm"}, {"material", "water"},
+       {"shape", test::box({0.5, 0, 0.1}, {0.7, 0.1, 0.3})}},
+      {{"name", "pile"}, {"kind", "mpm"}, {"material", "sand"},
+       {"shape", test::box({0.8, 0, 0.1}, {0.9, 0.1, 0.3})}},
+      {{"name", "crate"}, {"kind", "rigid"}, {"density", 500},
+       {"shape", test::box({0.4, 0.3, 0.2}, {0.5, 0.4, 0.3})}},
+      {{"name", "drain"}, {"kind", "sink"}, {"shape", test::box({0, 0, 0}, {0.05, 0.05, 0.05})}}};
+  auto labels = [](const PreviewSettings& s) {
+    std::vector<std::string> out;
+    for (const LegendEntry& e : s.legend) out.push_back(e.label);
+    return out;
+  };
+  const PreviewSettings particles = previewSettingsForScene(loadScene(test::writeScene(dir, j)));
+  EXPECT_EQ(labels(particles), (std::vector<std::string>{"pool", "pond", "pile", "crate"}));
+  EXPECT_EQ(particles.legend[1].color, objectColor(1));
+  EXPECT_EQ(particles.legend[3].color, objectColor(3));
+  j["render"] = {{"style", "surface"}};
+  const PreviewSettings surface = previewSettingsForScene(loadScene(test::writeScene(dir, j)));
+  EXPECT_EQ(labels(surface), (std::vector<std::string>{"water", "sand", "crate"}));
+  EXPECT_EQ(surface.legend[0].color, materialColor(MaterialModel::Water, 0));
+  EXPECT_EQ(surface.legend[1].color, materialColor(MaterialModel::DruckerPrager, 2));
+  EXPECT_NE(surface.legend[0].color, surface.legend[1].color);
+
+  j["render"]["legend"] = false;
+  EXPECT_TRUE(previewSettingsForScene(loadScene(test::writeScene(dir, j))).legend.empty());
+
+  writePreviewSettings(dir.string(), surface, "legend");
+  const PreviewSettings back = readPreviewSettings(previewSettingsPath(dir.string()));
+  ASSERT_EQ(labels(back), labels(surface));
+  for (size_t i = 0; i < back.legend.size(); ++i) EXPECT_EQ(back.legend[i].color, surface.legend[i].color);
+
+  Image img(200, 100, 128);
+  drawLegend(img, surface.legend);
+  const uint8_t* swatch = img.at(3, 3);  // inside the first swatch (pad 2, 5 wide)
+  for (int c = 0; c < 3; ++c) EXPECT_EQ(swatch[c], std::lround(surface.legend[0].color[size_t(c)] * 255.0f)) << c;
+  EXPECT_LT(img.at(20, 1)[0], 128);  // the panel (31 pixels wide here) darkens what is under it
+  EXPECT_EQ(img.at(199, 99)[0], 128);  // and nothing beyond it
+}
+
 TEST(PreviewSettingsIo, RoundTripAndSceneDefaults) {
   const fs::path dir = test::tempDir("preview_settings");
   nlohmann::json j = test::baseScene("settings", {1, 0.5, 0.5}, 0.02);

@@ -416,6 +416,7 @@ TEST_F(SceneLoaderTest, DefaultsAreTheDocumentedOnes) {
       {"render", "resolution", "/render/resolution",
        [](const SceneDesc& s) { return json(s.render.resolution); }},
       {"render", "style", "/render/style", [](const SceneDesc& s) { return json(int(s.render.style)); }},
+      {"render", "legend", "/render/legend", [](const SceneDesc& s) { return json(s.render.legend); }},
   };
   const SceneDesc without = load(base);
   for (const Case& c : cases) {
