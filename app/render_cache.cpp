@@ -111,10 +111,37 @@ int renderCache(const RenderCacheOptions& options) {
     else fs::create_directories(fs::path(dir) / "preview");
     render::PreviewRenderer renderer(settings);
     render::PreviewFrame frame;
+    bool noted = false;
     for (const auto& [number, ply] : frames) {
       try {
         render::readParticlesPly(ply, frame);
         readBodyMeshes(dir, settings, number, frame.meshes);
+        // Surface style: the materials' surface meshes instead of particles,
+        // where the cache has them (output.surface_mesh).
+        if (!settings.surfaces.empty()) {
+          bool all = true;
+          std::vector<render::PreviewMesh> surfaces;
+          for (const render::LegendEntry& e : settings.surfaces) {
+            const std::string path = surfaceMeshPath(dir, e.label, number);
+            if (!fs::is_regular_file(path, ec)) {
+              all = false;
+              break;
+            }
+            render::PreviewMesh& m = surfaces.emplace_back();
+            m.color = e.color;
+            render::readMeshPly(path, m);
+          }
+          if (all) {
+            frame.xyz.clear();
+            frame.object.clear();
+            frame.meshes.insert(frame.meshes.end(), surfaces.begin(), surfaces.end());
+          } else if (!noted) {
+            std::fprintf(stderr, "triad: note: the previews are in surface style, but %s holds no "
+                                 "surface meshes (output.surface_mesh): drawing particles\n",
+                         dir.c_str());
+            noted = true;
+          }
+        }
       } catch (const InputError& e) {
         std::fprintf(stderr, "triad: error: %s\n", e.what());
         if (rendered > 0)

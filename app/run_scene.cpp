@@ -222,18 +222,13 @@ int runScene(const RunOptions& options) {
     if (preview) {
       const bool surface_style = scene.render.style == RenderStyle::Surface;
       std::vector<render::PreviewMesh> meshes;
-      if (surface_style)
-        for (const auto& [m, mesh] : surfaces) {
-          render::PreviewMesh pm = render::previewMesh(mesh, -1);
-          int first = 0;
-          for (size_t k = 0; k < scene.objects.size(); ++k)
-            if (scene.objects[k].kind == ObjectKind::Mpm && scene.objects[k].material == m) {
-              first = int(k);
-              break;
-            }
-          pm.color = render::materialColor(scene.materials[size_t(m)].model, first);
-          meshes.push_back(std::move(pm));
-        }
+      for (const auto& [m, mesh] : surfaces)
+        for (const render::LegendEntry& e : preview->settings().surfaces)
+          if (surface_style && e.label == scene.materials[size_t(m)].name) {
+            render::PreviewMesh pm = render::previewMesh(mesh, -1);
+            pm.color = e.color;
+            meshes.push_back(std::move(pm));
+          }
       preview->writeFrame(world, frame, meshes, !surface_style);
     }
     // The checkpoint, last: --resume trusts every file of a checkpointed frame.

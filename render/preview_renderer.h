@@ -28,6 +28,10 @@ struct PreviewSettings {
   std::vector<std::string> object_names;  // scene objects, by index (for messages and legends)
   bool domain_outline = true;
   std::vector<LegendEntry> legend;  // drawn in the top left corner; empty: none
+  // render.style "surface": the materials whose surfaces are drawn instead
+  // of particles (surfaces/MATERIAL.FFFF.ply), each in its colour; empty for
+  // particle sprites.
+  std::vector<LegendEntry> surfaces;
 };
 
 // A world-space triangle mesh (a rigid or elastic body's surface).

@@ -84,6 +84,7 @@ PreviewSettings previewSettingsForScene(const SceneDesc& scene) {
       materials_listed.push_back(o.material);
       const MaterialDesc& m = scene.materials[size_t(o.material)];
       legend.push_back({m.name, materialColor(m.model, int(k))});
+      s.surfaces.push_back(legend.back());
     } else {
       legend.push_back({o.name, objectColor(int(k))});
     }
@@ -134,6 +135,9 @@ void writePreviewSettings(const std::string& out_dir, const PreviewSettings& s,
   json legend = json::array();
   for (const LegendEntry& e : s.legend) legend.push_back({{"label", e.label}, {"color", e.color}});
   j["legend"] = legend;
+  json surfaces = json::array();
+  for (const LegendEntry& e : s.surfaces) surfaces.push_back({{"material", e.label}, {"color", e.color}});
+  j["surfaces"] = surfaces;
   const std::string tmp = path + ".tmp" + std::to_string(::getpid());
   {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
@@ -208,6 +212,18 @@ PreviewSettings readPreviewSettings(const std::string& path) {
         r.bad(at, "expected {\"label\": string, \"color\": [r, g, b]}");
       const Vec3 c = r.vec3(r.get(e, "color", at + ".color"), at + ".color");
       s.legend.push_back({e["label"].get<std::string>(), {float(c[0]), float(c[1]), float(c[2])}});
+    }
+  }
+  if (j.contains("surfaces")) {
+    const json& entries = j["surfaces"];
+    if (!entries.is_array()) r.bad("surfaces", "expected an array of {material, color}");
+    for (size_t i = 0; i < entries.size(); ++i) {
+      const std::string at = "surfaces[" + std::to_string(i) + "]";
+      const json& e = entries[i];
+      if (!e.is_object() || !e.contains("material") || !e["material"].is_string())
+        r.bad(at, "expected {\"material\": string, \"color\": [r, g, b]}");
+      const Vec3 c = r.vec3(r.get(e, "color", at + ".color"), at + ".color");
+      s.surfaces.push_back({e["material"].get<std::string>(), {float(c[0]), float(c[1]), float(c[2])}});
     }
   }
   return s;

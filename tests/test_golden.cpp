@@ -371,6 +371,26 @@ TEST(RenderStyle, SurfaceDrawsWaterAsItsSurfaceInBlue) {
               100 * particles);
   EXPECT_GT(surface, 0.05);
   EXPECT_LT(particles, 0.005);
+
+  // triad render draws a surface-style cache from its surface meshes: the
+  // same image, byte for byte; without them it says so and draws particles.
+  j["render"]["style"] = "surface";
+  j["output"] = {{"vdb", false}, {"checkpoints", false}, {"surface_mesh", true}};
+  const fs::path cache = dir / "cache";
+  ASSERT_EQ(test::runTriad(dir, "run " + test::writeScene(dir, j, "cache.json") + " --out " +
+                                    cache.string() + " --quiet")
+                .status,
+            0);
+  const std::string preview = (cache / "preview/preview.0000.png").string();
+  const std::string first = test::slurp(preview);
+  test::CliResult r = test::runTriad(dir, "render " + cache.string());
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_TRUE(test::slurp(preview) == first) << "triad render drew another image";
+  fs::remove_all(cache / "surfaces");
+  r = test::runTriad(dir, "render " + cache.string());
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.err.find("no surface meshes"), std::string::npos) << r.err;
+  EXPECT_FALSE(test::slurp(preview) == first);
 }
 
 }  // namespace
