@@ -147,7 +147,11 @@ def set_triangles(mesh, vertices, faces):
         mesh.loops.foreach_set("vertex_index", faces.astype(np.int32).ravel())
         mesh.polygons.foreach_set("loop_start", np.arange(0, 3 * len(faces), 3, dtype=np.int32))
         mesh.polygons.foreach_set("loop_total", np.full(len(faces), 3, np.int32))
-        mesh.polygons.foreach_set("use_smooth", np.ones(len(faces), bool))
+        if hasattr(mesh.polygons, "foreach_set") and len(faces):
+            try:
+                mesh.polygons.foreach_set("use_smooth", np.ones(len(faces), bool))
+            except (AttributeError, TypeError):
+                pass  # Blender 4.1 and newer shade from the mesh's own attribute
     mesh.vertices.foreach_set("co", co.ravel())
     mesh.update()
 
@@ -191,8 +195,12 @@ def install_handler():
 def points_modifier(obj, radius):
     """Geometry Nodes: the mesh's vertices as points of `radius`."""
     tree = bpy.data.node_groups.new("Triad points", "GeometryNodeTree")
-    tree.inputs.new("NodeSocketGeometry", "Geometry")
-    tree.outputs.new("NodeSocketGeometry", "Geometry")
+    if hasattr(tree, "interface"):  # Blender 4.0 and newer
+        tree.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+        tree.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    else:
+        tree.inputs.new("NodeSocketGeometry", "Geometry")
+        tree.outputs.new("NodeSocketGeometry", "Geometry")
     nodes, links = tree.nodes, tree.links
     gin, gout = nodes.new("NodeGroupInput"), nodes.new("NodeGroupOutput")
     to_points = nodes.new("GeometryNodeMeshToPoints")
