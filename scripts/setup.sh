@@ -24,8 +24,10 @@ PACKAGES=(
   # the suite's `validation` tests read the caches with numpy
   python3 python3-numpy
   # the suite's `client` tests open the caches with the programs users open
-  # them with: VTK's readers, OpenVDB's Python module, Blender (headless)
-  python3-vtk9 python3-openvdb blender
+  # them with: VTK's readers, OpenVDB's Python module, Blender (headless).
+  # Blender loads OpenGL at run time (libepoxy) and names none of it: its
+  # Workbench render needs EGL and Mesa's software driver, surfaceless
+  python3-vtk9 python3-openvdb blender libegl1 libgl1 libegl-mesa0 libgl1-mesa-dri
 )
 if [ "${1:-}" = "--validation" ]; then
   # bench/validation/: the whole sweep also plots error against cost
