@@ -12,41 +12,11 @@ import sys
 import bpy
 import numpy as np
 
+# The shared reader beside this script (Blender runs it with its own sys.path).
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from cache_files import check, exit_status, read_ply  # noqa: E402
+
 cache = sys.argv[sys.argv.index("--") + 1]
-failures = []
-
-
-def check(ok, what):
-    if not ok:
-        failures.append(what)
-        print("FAIL:", what)
-
-
-def read_ply(path):
-    with open(path, "rb") as f:
-        header = []
-        while True:
-            line = f.readline().decode("ascii").strip()
-            header.append(line)
-            if line == "end_header":
-                break
-        data = f.read()
-    props, count = [], 0
-    for line in header:
-        w = line.split()
-        if w[:2] == ["element", "vertex"]:
-            count = int(w[2])
-        elif w[0] == "property" and w[1] != "list" and not props_done(header, line):
-            props.append((w[2], {"float": "<f4", "int": "<i4"}[w[1]]))
-    return np.frombuffer(data, np.dtype(props), count, 0)
-
-
-def props_done(header, line):
-    """True for property lines after the vertex element (the faces')."""
-    at = header.index(line)
-    return any(h.startswith("element face") for h in header[:at])
-
-
 def world_points(obj):
     n = len(obj.data.vertices)
     co = np.empty(3 * n, np.float32)
@@ -77,7 +47,7 @@ check(volume.velocity_grid == "vel" and volume.velocity_unit == "SECOND", "veloc
 for frame in sorted({0, 1, last}):
     scene.frame_set(frame)
     # Particles: Blender's point (x, -z, y) is the cache's (x, y, z).
-    ply = read_ply(os.path.join(cache, "particles", f"particles.{frame:04d}.ply"))
+    ply = read_ply(os.path.join(cache, "particles", f"particles.{frame:04d}.ply"))["vertex"]
     want = np.stack([ply["x"], -ply["z"], ply["y"]], 1).astype(np.float64)
     got = world_points(particles)
     check(got.shape == want.shape and np.abs(got - want).max() < 1e-6,
@@ -92,7 +62,7 @@ for frame in sorted({0, 1, last}):
     for f in os.listdir(os.path.join(cache, "bodies")):
         if not f.endswith(f".{frame:04d}.ply"):
             continue
-        body = read_ply(os.path.join(cache, "bodies", f))
+        body = read_ply(os.path.join(cache, "bodies", f))["vertex"]
         obj = objects[f.split(".")[0]]
         want = np.stack([body["x"], -body["z"], body["y"]], 1).astype(np.float64)
         check(np.abs(world_points(obj) - want).max() < 1e-6, f"frame {frame}: body {obj.name}")
@@ -117,5 +87,5 @@ drawn = float((np.abs(px - background).max(axis=1) > 0.05).mean())
 print(f"render: {100 * drawn:.1f}% of the pixels drawn")
 check(drawn > 0.02, f"render nearly empty ({100 * drawn:.1f}% drawn)")
 
-print("blender check:", "FAILED" if failures else "passed")
-sys.exit(1 if failures else 0)
+print("blender check:", "FAILED" if exit_status() else "passed")
+sys.exit(exit_status())

@@ -6,31 +6,13 @@ particles, read here with numpy: the grids a renderer looks for by name
 splat holds, and a `surface` that is a narrow band of distance.
 Usage: check_openvdb.py CACHE_DIR SCENE.json"""
 import json
-import math
 import os
 import sys
 
 import numpy as np
 import pyopenvdb as vdb
 
-failures = []
-
-
-def check(ok, what):
-    if not ok:
-        failures.append(what)
-        print("FAIL:", what)
-
-
-def read_particles(path):
-    with open(path, "rb") as f:
-        while f.readline().strip() != b"end_header":
-            pass
-        data = f.read()
-    dt = np.dtype([(k, "<f4") for k in ("x", "y", "z", "vx", "vy", "vz")] +
-                  [("object", "<i4"), ("J", "<f4"), ("id", "<i4")])
-    return np.frombuffer(data, dt)
-
+from cache_files import check, exit_status, read_ply
 
 def on_values(grid):
     """Active values as an array (tiles counted by their voxel count)."""
@@ -66,7 +48,7 @@ def main():
 
         # The splat holds the particles' mass and momentum.
         h = density.transform.voxelSize()[0]
-        p = read_particles(os.path.join(cache, "particles", f"particles.{frame:04d}.ply"))
+        p = read_ply(os.path.join(cache, "particles", f"particles.{frame:04d}.ply"))["vertex"]
         m = np.zeros(len(p))
         for k, pm in particle_mass.items():
             m[p["object"] == k] = pm
@@ -98,8 +80,7 @@ def main():
             check(abs((a - b) / hs - 1) < 0.15, f"{path}: slope {(a - b) / hs} inside the band")
             print(f"surface: {surface.activeVoxelCount()} active voxels, slope {(a - b) / hs:.3f}")
     print(f"volumes of {scene['frames']['count'] + 1} frames read back")
-    if failures:
-        sys.exit(1)
+    sys.exit(exit_status())
 
 
 main()

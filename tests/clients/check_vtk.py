@@ -14,14 +14,7 @@ import numpy as np
 import vtk
 from vtk.util.numpy_support import vtk_to_numpy
 
-failures = []
-
-
-def check(ok, what):
-    if not ok:
-        failures.append(what)
-        print("FAIL:", what)
-
+from cache_files import check, exit_status, read_ply
 
 def read_vtp(path):
     r = vtk.vtkXMLPolyDataReader()
@@ -29,40 +22,6 @@ def read_vtp(path):
     r.Update()
     check(r.GetErrorCode() == 0, f"{path}: VTK reader error {r.GetErrorCode()}")
     return r.GetOutput()
-
-
-def read_ply(path):
-    """Binary little-endian PLY of scalar vertex properties and
-    `list uchar int` faces, as a dict of arrays (and 'faces')."""
-    with open(path, "rb") as f:
-        header = []
-        while True:
-            line = f.readline().decode("ascii").strip()
-            header.append(line)
-            if line == "end_header":
-                break
-        data = f.read()
-    elements, props = [], {}
-    for line in header:
-        w = line.split()
-        if w[0] == "element":
-            elements.append((w[1], int(w[2])))
-            props[w[1]] = []
-        elif w[0] == "property" and w[1] != "list":
-            props[elements[-1][0]].append((w[2], {"float": "<f4", "int": "<i4"}[w[1]]))
-    out, at = {}, 0
-    for name, count in elements:
-        if name == "vertex":
-            dt = np.dtype(props["vertex"])
-            out["vertex"] = np.frombuffer(data, dt, count, at)
-            at += dt.itemsize * count
-        elif name == "face":
-            dt = np.dtype([("n", "u1"), ("v", "<i4", 3)])
-            faces = np.frombuffer(data, dt, count, at)
-            check(bool(np.all(faces["n"] == 3)), f"{path}: faces not triangles")
-            out["faces"] = faces["v"]
-            at += dt.itemsize * count
-    return out
 
 
 def polys(pd):
@@ -143,8 +102,7 @@ def main():
                 check(abs(volume / block - 1) < 0.04, f"{path}: volume {volume}, boxes {block}")
                 print(f"{name} at frame 0: {volume / block:.4f} of its boxes' volume")
     print(f"{len(entries)} VTK files of {len(expected)} series read back")
-    if failures:
-        sys.exit(1)
+    sys.exit(exit_status())
 
 
 main()
