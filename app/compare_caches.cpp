@@ -7,7 +7,6 @@
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
-#include <regex>
 #include <set>
 #include <stdexcept>
 #include <vector>
@@ -17,6 +16,7 @@
 #include "render/image.h"
 #include "render/particle_ply_reader.h"
 #include "render/png_writer.h"
+#include "render/preview_settings_io.h"
 #include "sim/errors.h"
 
 namespace triad {
@@ -24,20 +24,6 @@ namespace triad {
 namespace {
 
 namespace fs = std::filesystem;
-
-// The frame numbers of DIR/STEM.FFFF.EXT files.
-std::map<int, std::string> frameFiles(const fs::path& dir, const std::string& stem,
-                                      const std::string& ext) {
-  std::map<int, std::string> out;
-  const std::regex pattern(stem + R"(\.(\d{4,9})\.)" + ext);
-  std::error_code ec;
-  for (const auto& e : fs::directory_iterator(dir, ec)) {
-    std::smatch m;
-    const std::string name = e.path().filename().string();
-    if (std::regex_match(name, m, pattern)) out[std::stoi(m[1].str())] = e.path().string();
-  }
-  return out;
-}
 
 // The default particle tolerance: 1e-4 of the domain's diagonal (from
 // run.json), or 1e-4 m without one.
@@ -110,10 +96,10 @@ int compareCaches(const CompareOptions& o) {
     const double max_rms = o.max_rms >= 0 ? o.max_rms : defaultRms(b);
     const double max_position = o.max_position >= 0 ? o.max_position : 10.0 * max_rms;
 
-    const auto pa = frameFiles(a / "preview", "preview", "png"),
-               pb = frameFiles(b / "preview", "preview", "png");
-    const auto qa = frameFiles(a / "particles", "particles", "ply"),
-               qb = frameFiles(b / "particles", "particles", "ply");
+    const auto pa = render::listFrameFiles((a / "preview").string(), "preview", "png"),
+               pb = render::listFrameFiles((b / "preview").string(), "preview", "png");
+    const auto qa = render::listFrameFiles((a / "particles").string(), "particles", "ply"),
+               qb = render::listFrameFiles((b / "particles").string(), "particles", "ply");
     // Previews are compared where either has them; particles where both
     // caches hold particle files at all (a golden folder may keep previews only).
     const bool particles = !qa.empty() && !qb.empty();

@@ -85,24 +85,18 @@ std::string checkParticlesPly(const std::string& path, size_t particles) {
   return checkPlySize(path, *h, vertices * 36);
 }
 
-// A mesh whose size is known only from its own header (surface meshes).
-std::string checkMeshPly(const std::string& path) {
+// A mesh of vertices and triangles, complete by its header's counts; with
+// `expected` (a body's surface), also of that many (surface meshes have only
+// their own header to go by).
+std::string checkMeshPly(const std::string& path, const TriSurface* expected = nullptr) {
   const auto h = readPlyHeader(path);
   if (!h) return fs::exists(path) ? "no PLY header" : "missing";
   const size_t v = h->elements.count("vertex") ? h->elements.at("vertex") : 0;
   const size_t f = h->elements.count("face") ? h->elements.at("face") : 0;
-  return checkPlySize(path, *h, v * 12 + f * 13);
-}
-
-std::string checkBodyPly(const std::string& path, const TriSurface& surface) {
-  const auto h = readPlyHeader(path);
-  if (!h) return fs::exists(path) ? "no PLY header" : "missing";
-  const size_t v = h->elements.count("vertex") ? h->elements.at("vertex") : 0;
-  const size_t f = h->elements.count("face") ? h->elements.at("face") : 0;
-  if (v != surface.vertices.size() || f != surface.triangles.size())
+  if (expected && (v != expected->vertices.size() || f != expected->triangles.size()))
     return std::to_string(v) + " vertices and " + std::to_string(f) + " faces, the body has " +
-           std::to_string(surface.vertices.size()) + " and " +
-           std::to_string(surface.triangles.size());
+           std::to_string(expected->vertices.size()) + " and " +
+           std::to_string(expected->triangles.size());
   return checkPlySize(path, *h, v * 12 + f * 13);
 }
 
@@ -119,13 +113,13 @@ std::string checkFrameCaches(const SceneDesc& scene, const std::string& out_dir,
   std::vector<std::string> names;
   for (const RigidBody& b : world.bodies) {
     const std::string p = bodyMeshPath(out_dir, b.name, frame);
-    const std::string why = checkBodyPly(p, b.surface);
+    const std::string why = checkMeshPly(p, &b.surface);
     if (!why.empty()) return p + ": " + why;
     names.push_back(b.name);
   }
   for (const ElasticSolid& e : world.elastics) {
     const std::string p = bodyMeshPath(out_dir, e.name, frame);
-    const std::string why = checkBodyPly(p, e.surface);
+    const std::string why = checkMeshPly(p, &e.surface);
     if (!why.empty()) return p + ": " + why;
   }
   if (!names.empty()) {
@@ -252,6 +246,9 @@ std::vector<std::pair<int, TriSurface>> writeFrameCaches(const SceneDesc& scene,
                                                          const World& world, int frame) {
   std::vector<std::pair<int, TriSurface>> surfaces;
   const bool vtk = scene.output.vtk;
+  // The VDB voxel, which also bounds the surfaces' level-set voxel.
+  const double voxel =
+      scene.output.vdb_voxel_size > 0 ? scene.output.vdb_voxel_size : scene.domain.dx;
   if (scene.output.ply) writeParticlesPly(particlesPath(out_dir, frame), world);
   if (vtk) writeParticlesVtp(frameName(vtkDir(out_dir), "particles", frame, "vtp"), world);
   if (scene.output.vdb) {
@@ -259,15 +256,14 @@ std::vector<std::pair<int, TriSurface>> writeFrameCaches(const SceneDesc& scene,
     info.frame = frame;
     info.time = world.time;
     info.scene_name = scene.name;
-    info.voxel_size = scene.output.vdb_voxel_size > 0 ? scene.output.vdb_voxel_size
-                                                      : scene.domain.dx;
+    info.voxel_size = voxel;
     info.surface = scene.output.vdb_surface;
     writeVolumesVdb(volumesPath(out_dir, frame), world, info);
   }
-  if (scene.output.surface_mesh || scene.render.style == RenderStyle::Surface) {
+  const bool preview_surfaces = scene.output.png && scene.render.style == RenderStyle::Surface;
+  if (scene.output.surface_mesh || preview_surfaces) {
     SurfaceMeshSettings settings;
-    settings.voxel_size =
-        scene.output.vdb_voxel_size > 0 ? scene.output.vdb_voxel_size : scene.domain.dx;
+    settings.voxel_size = voxel;
     settings.smoothing = scene.output.surface_smoothing;
     settings.adaptivity = scene.output.surface_adaptivity;
     for (int m : surfaceMaterials(scene)) {

@@ -46,7 +46,8 @@ void makeOutputDirectories(const SceneDesc& scene, const std::string& out_dir);
 // and with output.vtk the same as VTK PolyData, the solids' surfaces with
 // them, and vtk/cache.pvd listing frames 0..frame.
 // Returns the material surfaces it made (material index, mesh): with
-// output.surface_mesh or render.style "surface", else none.
+// output.surface_mesh, or previews (output.png) in render.style "surface";
+// else none.
 std::vector<std::pair<int, TriSurface>> writeFrameCaches(const SceneDesc& scene,
                                                          const std::string& out_dir,
                                                          const World& world, int frame);

@@ -7,7 +7,6 @@
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
-#include <regex>
 #include <string>
 
 #include "app/frame_output.h"
@@ -92,15 +91,8 @@ int renderCache(const RenderCacheOptions& options) {
   }
 
   // Frames: every particles/particles.FFFF.ply, in frame order.
-  std::map<int, std::string> frames;
   const fs::path particles_dir = fs::path(dir) / "particles";
-  const std::regex name(R"(particles\.(\d{4,})\.ply)");
-  if (fs::is_directory(particles_dir, ec))
-    for (const auto& entry : fs::directory_iterator(particles_dir, ec)) {
-      std::smatch m;
-      const std::string file = entry.path().filename().string();
-      if (std::regex_match(file, m, name)) frames[std::atoi(m[1].str().c_str())] = entry.path().string();
-    }
+  const auto frames = render::listFrameFiles(particles_dir.string(), "particles", "ply");
   if (frames.empty())
     return badInput(particles_dir.string() + ": no particle caches (particles.FFFF.ply) to render");
 

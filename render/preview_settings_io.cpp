@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <regex>
 #include <sstream>
 #include <stdexcept>
 
@@ -43,6 +44,31 @@ struct Reader {
     return v;
   }
 };
+
+// The legend's lines and the surface colours: [{NAME_KEY: string, "color":
+// [r, g, b]}] under `key`.
+json swatchesJson(const std::vector<LegendEntry>& entries, const char* name_key) {
+  json out = json::array();
+  for (const LegendEntry& e : entries) out.push_back({{name_key, e.label}, {"color", e.color}});
+  return out;
+}
+
+std::vector<LegendEntry> readSwatches(const Reader& r, const json& j, const std::string& key,
+                                      const std::string& name_key) {
+  std::vector<LegendEntry> out;
+  if (!j.contains(key)) return out;
+  const std::string shape = "{\"" + name_key + "\": string, \"color\": [r, g, b]}";
+  const json& entries = j[key];
+  if (!entries.is_array()) r.bad(key, "expected an array of " + shape);
+  for (size_t i = 0; i < entries.size(); ++i) {
+    const std::string at = key + "[" + std::to_string(i) + "]";
+    const json& e = entries[i];
+    if (!e.is_object() || !e.contains(name_key) || !e[name_key].is_string()) r.bad(at, "expected " + shape);
+    const Vec3 c = r.vec3(r.get(e, "color", at + ".color"), at + ".color");
+    out.push_back({e[name_key].get<std::string>(), {float(c[0]), float(c[1]), float(c[2])}});
+  }
+  return out;
+}
 
 }  // namespace
 
@@ -109,6 +135,19 @@ std::string previewImagePath(const std::string& out_dir, int frame) {
   return out_dir + "/preview/preview." + buf + ".png";
 }
 
+std::map<int, std::string> listFrameFiles(const std::string& dir, const std::string& stem,
+                                          const std::string& ext) {
+  std::map<int, std::string> out;
+  const std::regex pattern(stem + R"(\.(\d{4,9})\.)" + ext);
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(dir, ec)) {
+    std::smatch m;
+    const std::string name = e.path().filename().string();
+    if (std::regex_match(name, m, pattern)) out[std::stoi(m[1].str())] = e.path().string();
+  }
+  return out;
+}
+
 std::string contactSheetPath(const std::string& out_dir) {
   return out_dir + "/preview/contact_sheet.png";
 }
@@ -132,12 +171,8 @@ void writePreviewSettings(const std::string& out_dir, const PreviewSettings& s,
   j["particle_radius"] = s.particle_radius;
   j["domain_outline"] = s.domain_outline;
   j["objects"] = s.object_names;
-  json legend = json::array();
-  for (const LegendEntry& e : s.legend) legend.push_back({{"label", e.label}, {"color", e.color}});
-  j["legend"] = legend;
-  json surfaces = json::array();
-  for (const LegendEntry& e : s.surfaces) surfaces.push_back({{"material", e.label}, {"color", e.color}});
-  j["surfaces"] = surfaces;
+  j["legend"] = swatchesJson(s.legend, "label");
+  j["surfaces"] = swatchesJson(s.surfaces, "material");
   const std::string tmp = path + ".tmp" + std::to_string(::getpid());
   {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
@@ -202,30 +237,8 @@ PreviewSettings readPreviewSettings(const std::string& path) {
       s.object_names.push_back(o.get<std::string>());
     }
   }
-  if (j.contains("legend")) {
-    const json& entries = j["legend"];
-    if (!entries.is_array()) r.bad("legend", "expected an array of {label, color}");
-    for (size_t i = 0; i < entries.size(); ++i) {
-      const std::string at = "legend[" + std::to_string(i) + "]";
-      const json& e = entries[i];
-      if (!e.is_object() || !e.contains("label") || !e["label"].is_string())
-        r.bad(at, "expected {\"label\": string, \"color\": [r, g, b]}");
-      const Vec3 c = r.vec3(r.get(e, "color", at + ".color"), at + ".color");
-      s.legend.push_back({e["label"].get<std::string>(), {float(c[0]), float(c[1]), float(c[2])}});
-    }
-  }
-  if (j.contains("surfaces")) {
-    const json& entries = j["surfaces"];
-    if (!entries.is_array()) r.bad("surfaces", "expected an array of {material, color}");
-    for (size_t i = 0; i < entries.size(); ++i) {
-      const std::string at = "surfaces[" + std::to_string(i) + "]";
-      const json& e = entries[i];
-      if (!e.is_object() || !e.contains("material") || !e["material"].is_string())
-        r.bad(at, "expected {\"material\": string, \"color\": [r, g, b]}");
-      const Vec3 c = r.vec3(r.get(e, "color", at + ".color"), at + ".color");
-      s.surfaces.push_back({e["material"].get<std::string>(), {float(c[0]), float(c[1]), float(c[2])}});
-    }
-  }
+  s.legend = readSwatches(r, j, "legend", "label");
+  s.surfaces = readSwatches(r, j, "surfaces", "material");
   return s;
 }
 

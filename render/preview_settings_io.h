@@ -2,6 +2,7 @@
 // Preview settings from a scene, and their record in a cache
 // (`preview/settings.json`), so that `triad render CACHE_DIR` draws what the
 // run drew without the scene file.
+#include <map>
 #include <string>
 
 #include "render/preview_renderer.h"
@@ -24,6 +25,11 @@ std::array<float, 3> materialColor(MaterialModel model, int first_object);
 // `OUT/preview/settings.json` and `OUT/preview/preview.FFFF.png`.
 std::string previewSettingsPath(const std::string& out_dir);
 std::string previewImagePath(const std::string& out_dir, int frame);
+
+// The frame files DIR/STEM.FFFF.EXT (four or more digits), by frame number;
+// empty when DIR is missing.
+std::map<int, std::string> listFrameFiles(const std::string& dir, const std::string& stem,
+                                          const std::string& ext);
 std::string contactSheetPath(const std::string& out_dir);
 
 // Writes OUT/preview/settings.json atomically (creating OUT/preview).

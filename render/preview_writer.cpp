@@ -4,7 +4,6 @@
 #include <cstdlib>
 #include <filesystem>
 #include <map>
-#include <regex>
 
 #include "render/png_writer.h"
 
@@ -48,21 +47,12 @@ PreviewMesh previewMesh(const TriSurface& surface, int object) {
 }
 
 int writeContactSheet(const std::string& out_dir) {
-  const fs::path dir = fs::path(out_dir) / "preview";
-  std::map<int, fs::path> frames;
-  const std::regex name(R"(preview\.(\d{4,})\.png)");
-  std::error_code ec;
-  if (!fs::is_directory(dir, ec)) return 0;
-  for (const auto& entry : fs::directory_iterator(dir, ec)) {
-    std::smatch m;
-    const std::string file = entry.path().filename().string();
-    if (std::regex_match(file, m, name)) frames[std::atoi(m[1].str().c_str())] = entry.path();
-  }
+  const auto frames = listFrameFiles(out_dir + "/preview", "preview", "png");
   if (frames.empty()) return 0;
   std::vector<Image> images;
   std::vector<int> labels;
   for (const auto& [frame, path] : frames) {
-    images.push_back(readPng(path.string()));
+    images.push_back(readPng(path));
     labels.push_back(frame);
   }
   writePng(contactSheetPath(out_dir), contactSheet(images, labels));
