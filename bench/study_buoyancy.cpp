@@ -280,6 +280,33 @@ int main(int argc, char** argv) {
     }
   }
   mean_draft /= counted;
+  if (getenv("STUDY_ROWS")) {
+    // Mean pressure and vertical speed in half-cell rows under and over the
+    // slab's footprint, against far from it at the same height.
+    const double b = bottom();
+    for (int r = -6; r < 6; ++r) {
+      const bool under = r < 0;
+      const double y0r = under ? b + r * 0.5 * s.dx : b + t + r * 0.5 * s.dx;
+      double pin = 0, pfar = 0, vin = 0;
+      int nin = 0, nfar = 0;
+      for (const triad::ParticleSet& set : w.sets) {
+        const auto* wat = std::get_if<triad::Water<float>>(&set.model);
+        if (!wat) continue;
+        for (size_t i = 0; i < set.size(); ++i) {
+          const triad::Vec3f& x = set.x[i];
+          if (x.y() < y0r || x.y() >= y0r + 0.5 * s.dx) continue;
+          const bool inside = x.x() > sx0 + s.dx && x.x() < sx1 - s.dx && x.z() > kSz0 + s.dx &&
+                              x.z() < kSz1 - s.dx;
+          const bool far = x.x() < sx0 - 2 * s.dx || x.x() > sx1 + 2 * s.dx;
+          if (inside) { pin += wat->pressure(set.J[i]); vin += set.v[i].y(); ++nin; }
+          if (far) { pfar += wat->pressure(set.J[i]); ++nfar; }
+        }
+      }
+      std::printf("row %s %+.1f dx: p %.0f (far %.0f) vy %.4f (%d)\n", under ? "under" : "over",
+                  under ? r * 0.5 : r * 0.5, pin / std::max(nin, 1), pfar / std::max(nfar, 1),
+                  vin / std::max(nin, 1), nin);
+    }
+  }
   if (getenv("STUDY_SURFACE")) {
     // Highest water particle per column of cells along x at the slab's middle z.
     const int nx = int(std::round(kX / s.dx));

@@ -43,6 +43,8 @@ const ParamDict::Choices<RigidNodeMass> kNodeMasses = {{"body_share", RigidNodeM
                                                         {"node", RigidNodeMass::Node}};
 const ParamDict::Choices<ContactNormal> kContactNormals = {{"samples", ContactNormal::Samples},
                                                            {"distance", ContactNormal::Distance}};
+const ParamDict::Choices<RigidCollision> kRigidCollisions = {{"jacobi", RigidCollision::Jacobi},
+                                                             {"newton", RigidCollision::Newton}};
 const ParamDict::Choices<MaterialModel> kModels = {
     {"fixed_corotated", MaterialModel::FixedCorotated},
     {"neo_hookean", MaterialModel::NeoHookean},
@@ -173,6 +175,8 @@ SolverDesc parseSolver(const ParamDict& root) {
   if (out.coupling == CouplingScheme::ThreeGrid) {
     out.contact_reach = s->getDouble("contact_reach", out.contact_reach, Range::closed(0, 1.5));
     out.contact_normal = s->getEnum("contact_normal", out.contact_normal, kContactNormals);
+    out.rigid_collision = s->getEnum("rigid_collision", out.rigid_collision, kRigidCollisions);
+    out.contact_gap = s->getBool("contact_gap", out.contact_gap);
   }
   out.contact_velocity = s->getEnum("contact_velocity", out.contact_velocity, kContactVelocities);
   out.solid_readback = s->getEnum("solid_readback", out.solid_readback, kReadbacks);
@@ -182,7 +186,8 @@ SolverDesc parseSolver(const ParamDict& root) {
   out.contact_iterations =
       s->getInt("contact_iterations", out.contact_iterations, Range::closed(1, 1000));
   s->checkUnknownKeys({}, [&](const std::string& key) -> std::string {
-    if (key == "contact_reach" || key == "contact_normal")
+    if (key == "contact_reach" || key == "contact_normal" || key == "rigid_collision" ||
+        key == "contact_gap")
       return std::string("it applies only when coupling is \"three_grid\", and coupling is ") +
              inQuotes(nameOf(kCouplings, out.coupling));
     if (key != "flip_ratio") return {};

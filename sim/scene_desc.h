@@ -26,6 +26,9 @@ enum class RigidNodeMass { BodyShare, Node };
 // Three grids: a node's contact normal, from the samples' summed normals
 // (the contract's step 4) or from the body's own signed distance.
 enum class ContactNormal { Samples, Distance };
+// Three grids: how a moving rigid body's nodes are solved together, by
+// Jacobi passes over the nodes or by Newton's method on the body's velocity.
+enum class RigidCollision { Jacobi, Newton };
 
 enum class MaterialModel { FixedCorotated, NeoHookean, Snow, DruckerPrager, Water };
 enum class ObjectKind { Mpm, Rigid, Elastic, Collider, Sink };
@@ -63,6 +66,10 @@ struct SolverDesc {
   // the samples). 1.5 takes every node the samples' stencils reach.
   double contact_reach = 1.5;
   ContactNormal contact_normal = ContactNormal::Distance;
+  RigidCollision rigid_collision = RigidCollision::Newton;
+  // Three grids: material a gap away from a rigid solid may close it in a
+  // step before the collision stops it (a speculative contact).
+  bool contact_gap = true;
   int coupling_iterations = 30;  // most Jacobi passes of the grid collision with rigid bodies
   int contact_iterations = 20;  // sequential-impulse passes for rigid contacts
 };

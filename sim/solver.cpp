@@ -371,6 +371,9 @@ void Solver::scatterSolids() {
 
 void Solver::collideSolids() {
   PhaseTimer timer(times_.solids);
+  const SolverDesc& s = world_.scene.solver;
+  if (s.contact_gap && s.coupling == CouplingScheme::ThreeGrid)
+    coupling_->measureGaps(world_.sets, layout_, params_);
   coupling_->collide(grid_, points_, params_);
   for (size_t b = 0; b < world_.bodies.size(); ++b) {
     if (!world_.bodies[b].fixed) continue;

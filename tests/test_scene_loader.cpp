@@ -716,6 +716,24 @@ TEST_F(SceneLoaderTest, ContactNormalIsDistanceOrSamplesAndOnlyWithThreeGrids) {
                        {"solver.contact_normal", "coupling is \"three_grid\""}));
 }
 
+TEST_F(SceneLoaderTest, RigidCollisionAndContactGapOnlyWithThreeGrids) {
+  const SceneDesc d = load(exampleScene());
+  EXPECT_EQ(d.solver.rigid_collision, RigidCollision::Newton);
+  EXPECT_TRUE(d.solver.contact_gap);
+  EXPECT_EQ(load(with(exampleScene(), "/solver/rigid_collision", "jacobi")).solver.rigid_collision,
+            RigidCollision::Jacobi);
+  EXPECT_FALSE(load(with(exampleScene(), "/solver/contact_gap", false)).solver.contact_gap);
+  EXPECT_TRUE(contains(error(with(exampleScene(), "/solver/rigid_collision", "gauss_seidel")),
+                       {"solver.rigid_collision", "jacobi", "newton"}));
+  EXPECT_TRUE(contains(error(with(exampleScene(), "/solver/contact_gap", "yes")),
+                       {"solver.contact_gap"}));
+  json single = with(exampleScene(), "/solver/coupling", "single_grid");
+  EXPECT_TRUE(contains(error(with(single, "/solver/rigid_collision", "jacobi")),
+                       {"solver.rigid_collision", "coupling is \"three_grid\""}));
+  EXPECT_TRUE(contains(error(with(single, "/solver/contact_gap", true)),
+                       {"solver.contact_gap", "coupling is \"three_grid\""}));
+}
+
 TEST_F(SceneLoaderTest, MisspeltChoiceSuggestsTheClosest) {
   EXPECT_TRUE(contains(error(with(exampleScene(), "/domain/boundary/type", "slpi")),
                        {"domain.boundary.type", "\"slip\", \"sticky\", \"separate\"",

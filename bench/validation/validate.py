@@ -298,10 +298,13 @@ SUITE = {"free_fall": "preview", "incline": "preview", "bar": "preview",
          "dam_break": "preview", "granular_collapse": "preview", "archimedes": "preview"}
 # Known misses, pinned: the measured error and how far it may move before the
 # guard fails, so that a fix or a worse miss is seen and this is updated.
-# Archimedes at preview: the dropped slab is still sinking when the window
-# (1-1.6 s) closes, 2-3 mm/s, and goes on past Archimedes' draft (0.0615 m
-# at 8 s against 0.050) while it tilts 8 degrees and yaws (bench/RESULTS.md).
-KNOWN_MISS = {"archimedes": (0.1797, 0.02)}
+# Archimedes at preview: the dropped slab is still settling from above when
+# the window (1-1.6 s) closes (0.036 m at 1 s, 0.0405 at 6 s against 0.050,
+# sinking at 0.5 mm/s): the water under it cannot get out of its way, held
+# by its pressure alternating between particle rows (bench/RESULTS.md, "The
+# stall"). With rigid_collision "jacobi" it sank on past Archimedes' draft
+# (0.064 m at 6 s, 18% in the window).
+KNOWN_MISS = {"archimedes": (0.3073, 0.02)}
 
 
 def variants(case, quick):

@@ -10,6 +10,9 @@ namespace triad {
 namespace {
 
 constexpr int32_t kNoSlot = -1;
+// Newton's method on a body's six velocity unknowns: a few iterations in
+// practice (piecewise quadratic energy); this only bounds a pathological case.
+constexpr int kNewtonIterations = 50;
 
 // A node no solid reaches: no mass, and as far outside as can be.
 const GridCoupling::SolidNode kEmptyNode{0,         {0, 0, 0}, {0, 0, 0}, 0, 0, {0, 0, 0},
@@ -125,6 +128,7 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
   // Base blocks whose stencils reach the MPM grid; their neighbours' slots.
   layout_keys_ = &layout.grid_keys;
   blocks_.clear();
+  slot_moving_.clear();
   block_slot_.assign(layout.gridBlocks(), kNoSlot);
   slot_block_.clear();
   order_.clear();
@@ -148,6 +152,11 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
       any = true;
     }
     if (any) {
+      for (int d = 0; d < 8; ++d)
+        if (blk.slot[d] != kNoSlot) {
+          if (slot_moving_.size() <= size_t(blk.slot[d])) slot_moving_.resize(size_t(blk.slot[d]) + 1, 0);
+          slot_moving_[size_t(blk.slot[d])] = 1;
+        }
       // order_ holds run indices as (start, end, solid) triples.
       for (size_t k = r; k < e; ++k) {
         order_.push_back(runs[k].start);
@@ -180,6 +189,7 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
     }
   }
   nodes_.assign(slot_block_.size() * kBlockNodes, kEmptyNode);
+  slot_moving_.resize(slot_block_.size(), 0);
   for (const auto& [slot, f] : fixed_copy)
     std::copy_n(&fixed_nodes_[f * kBlockNodes], kBlockNodes, &nodes_[size_t(slot) * kBlockNodes]);
   for (auto& c : colour_blocks_) c.clear();
@@ -334,6 +344,9 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
       Shared& c = shared_[out++];
       c.P = c.T = c.dP = Vec3f::Zero();
       c.lambda = 0.0f;
+      c.close = gap_.size() == nodes_.size() && sn.phi > -1e29f && gap_[i] < 1e29f
+                    ? gap_[i] / p.dt
+                    : 0.0f;
       c.i = uint32_t(i);
       c.g = uint32_t(gb * kBlockNodes + k);
       c.fixed = sn.fixed_m > 0.0f;  // any immovable solid: infinite mass
@@ -414,7 +427,8 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
   // change the impulses of all nodes made to the body so far: one pass is
   // the contract's step 6; further passes (Jacobi) let the body's response
   // feed back, so that material resting on a body does not sink into it by
-  // g dt^2 every step.
+  // g dt^2 every step. A node whose material is still a gap away from the
+  // solid (measureGaps) lets it approach by that gap in the step.
   std::vector<Vec3f> dV(nsolids, Vec3f::Zero()), dW(nsolids, Vec3f::Zero());
   // One relaxation of node c against the solid's current velocity.
   auto relax = [&](Shared& c) {
@@ -423,7 +437,7 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
     Vec3f v_solid = c.v_vol;
     if (c.solid >= 0) v_solid += dV[c.solid] + dW[c.solid].cross(c.x - pts.centre[c.solid]);
     const Vec3f u = c.v_cmp + c.P / c.m_mpm - v_solid;
-    const float un = u.dot(c.n);
+    const float un = u.dot(c.n) + c.close;  // the gap may close in the step
     if (un >= 0.0f && c.lambda <= 0.0f) return;  // separating: material leaves freely
     const float m_solid = c.m_vol * (c.solid >= 0 ? share[c.solid] : 1.0f);
     const float reduced = c.fixed ? c.m_mpm : c.m_mpm * m_solid / (c.m_mpm + m_solid);
@@ -445,8 +459,12 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
   moving_.clear();
   for (uint32_t k = 0; k < shared_.size(); ++k)
     if (shared_[k].solid >= 0) moving_.push_back(k);
+  const bool newton = solver_.rigid_collision == RigidCollision::Newton;
   const int passes = moving_.empty() ? 1 : solver_.coupling_iterations;
   int pass = 1;
+  // With rigid_collision newton, each moving body's normal impulses are
+  // solved exactly first; the passes then only settle friction.
+  if (newton && !moving_.empty()) solveBodyNormals(pts, kNewtonIterations, dV, dW);
   for (;; ++pass) {
     // Each body takes the opposite of its nodes' new impulses.
     std::vector<Vec3f> dp(nsolids, Vec3f::Zero()), dl(nsolids, Vec3f::Zero());

@@ -78,6 +78,13 @@ class GridCoupling {
   // `grid` holds MPM velocities after the grid update; it is changed in place.
   void collide(std::vector<GridNode>& grid, const SolidPoints& points, const TransferParams& p);
 
+  // The gap between the MPM material and the solids at every node: the
+  // smallest clearance (distance to the solids' surface less half a
+  // particle spacing, never negative) of the particles whose stencils
+  // reach the node, their distance interpolated from the nodes' own.
+  void measureGaps(const std::vector<ParticleSet>& sets, const GridLayout& layout,
+                   const TransferParams& p);
+
   // Step 8: each point's velocity change from the grid (points.dv), either
   // the opposite of the impulses the MPM side got (momentum conserving) or
   // the combined grid's velocity minus the solid's own (as the note writes).
@@ -130,6 +137,7 @@ class GridCoupling {
     Vec3f v_mpm, v_cmp, v_vol, n, x;  // x: world position
     Vec3f P = Vec3f::Zero(), T = Vec3f::Zero(), dP = Vec3f::Zero();
     float lambda = 0.0f;  // accumulated normal impulse
+    float close = 0.0f;   // approach speed the gap allows: gap / dt
   };
   // A base block of active points: its points and the slots of the eight
   // grid blocks its stencils reach (-1: not in the MPM grid).
@@ -142,6 +150,8 @@ class GridCoupling {
   SolverDesc solver_;
   std::vector<SolidNode> nodes_;       // per slot * 64 + node
   std::vector<Vec3f> delta_;           // per slot node: velocity change felt by the solids
+  std::vector<uint8_t> slot_moving_;  // per slot: a moving or driven solid reaches it
+  std::vector<float> gap_;             // per slot node: the material's clearance (measureGaps)
   std::vector<Vec3f> pre_;             // per slot node: MPM velocity before the update
   std::vector<uint32_t> slot_block_;   // per slot: grid block index
   std::vector<int32_t> block_slot_;    // per grid block: slot or -1
@@ -151,6 +161,11 @@ class GridCoupling {
   std::vector<uint64_t> point_key_;    // per point: base block key
   void buildFixed(const SolidPoints& points, const TransferParams& p);
   void addNodeLoad(int32_t solid, const Shared& c, const Vec3f& impulse);
+  // The normal impulses at moving rigid bodies' nodes (moving_), solved
+  // for each body's velocity change (dV, dW) by Newton's method; returns
+  // the largest number of iterations a body took.
+  int solveBodyNormals(const SolidPoints& points, int max_iterations, std::vector<Vec3f>& dV,
+                       std::vector<Vec3f>& dW);
 
   std::vector<Shared> shared_;
   std::vector<uint32_t> moving_;  // shared nodes of one moving rigid body
