@@ -89,6 +89,36 @@ TEST(Estimate, ProbeStepsTheRunItself) {
   EXPECT_NE(text.out.find("probe: built in"), std::string::npos) << text.out;
 }
 
+// A source kept full under gravity emits more than rho A |v|: its material
+// accelerates out of it, and with no velocity at all it still pours. A
+// sand hopper 4 cells tall, for 0.5 s: measured 7040 and 4389 particles
+// made, estimated 6898 (-2.0%) and 4399 (+0.2%); the estimate ignoring
+// gravity said 4353 and 640 (the fill alone).
+TEST(Estimate, SourceEmissionFollowsGravity) {
+  for (double vy : {-1.0, 0.0}) {
+    const fs::path dir = test::tempDir(vy == 0 ? "estimate_pour" : "estimate_hopper");
+    json j = test::baseScene("hopper", {0.4, 1.0, 0.4}, 0.02);
+    j["materials"]["sand"] = {{"model", "drucker_prager"}, {"density", 1600},
+                              {"youngs_modulus", 2e5}, {"poisson_ratio", 0.3}};
+    j["objects"].push_back({{"name", "hopper"}, {"kind", "mpm"}, {"material", "sand"},
+                            {"velocity", {0, vy, 0}},
+                            {"shape", test::box({0.16, 0.82, 0.15}, {0.24, 0.9, 0.25})},
+                            {"emit", {{"start", 0.0}, {"end", 5.0}}}});
+    j["frames"] = {{"count", 12}, {"fps", 24}};
+    j["output"] = {{"vdb", false}, {"png", false}};
+    const std::string scene = test::writeScene(dir, j);
+    const test::CliResult c = test::runTriad(dir, "check " + scene + " --json");
+    ASSERT_EQ(c.status, 0) << c.err;
+    const double estimated = json::parse(c.out)["objects"][0]["particles"].get<double>();
+    const std::string out = (dir / "out").string();
+    ASSERT_EQ(test::runTriad(dir, "run " + scene + " --quiet --out " + out).status, 0);
+    const json rec = json::parse(test::slurp(dir / "out" / "run.json"));
+    const double made = rec["particles"]["emitted"]["hopper"].get<double>();
+    std::printf("velocity %g: estimated %.0f, made %.0f\n", vy, estimated, made);
+    EXPECT_NEAR(estimated, made, 0.05 * made) << vy;
+  }
+}
+
 // dx = 1e-5 m asks for about 1e14 particles: refused before any sampling,
 // in well under 5 s and 1 GiB, naming the object, the count and what to
 // change; `triad check` says the same with exit 2.
