@@ -30,8 +30,6 @@ constexpr double kSampleBytes = 90.0;
 // An elastic sample (a FEM node and its six tetrahedra); implicit solids
 // also keep each element's 12 x 12 stiffness.
 constexpr double kElasticSampleBytes = 1000.0, kImplicitSampleBytes = 8000.0;
-// Particle-substeps per second on the project's 2-core machine.
-constexpr double kRate = 9e6;
 
 // Lattice points of one axis in [lo, hi) of the domain, at in-cell offsets o.
 double axisPoints(double lo, double hi, double dmin, double dmax, double dx,
@@ -222,12 +220,20 @@ SceneEstimate estimateScene(const SceneDesc& scene) {
   if (c > 0) e.first_dt = std::min(e.first_dt, scene.solver.cfl * d.dx / c);
   e.first_dt = std::min(e.first_dt, dt_solid);
   e.substeps_per_frame = 1.0 / (scene.frames.fps * e.first_dt);
-  const double substeps = e.substeps_per_frame * scene.frames.count;
-  e.wall_seconds = std::max(e.particles, 1.0) * substeps / kRate;
+  e.substeps = e.substeps_per_frame * scene.frames.count;
+  RateProbe fixed;
+  fixed.why_not = "not probed";
+  applyRate(e, fixed);
   if (scene.output.ply) e.disk_bytes_per_frame += 36.0 * e.particles;
   if (scene.output.vdb) e.disk_bytes_per_frame += 16.0 * e.particles / ppc;
   e.available_bytes = availableBytes();
   return e;
+}
+
+void applyRate(SceneEstimate& e, const RateProbe& probe) {
+  e.probe = probe;
+  e.rate = probe.ran && probe.rate > 0 ? probe.rate : kFixedRate;
+  e.wall_seconds = std::max(e.particles, 1.0) * e.substeps / e.rate;
 }
 
 void requireFits(const SceneDesc& scene, const SceneEstimate& e) {
@@ -255,13 +261,23 @@ std::string describeEstimate(const SceneEstimate& e) {
                   countText(o.particles).c_str(), bytesText(o.bytes).c_str());
     s += buf;
   }
-  char wall[32];
-  std::snprintf(wall, sizeof wall, "%.3g s", e.wall_seconds);
   std::snprintf(buf, sizeof buf,
                 "  memory about %s (the process's own included) of %s available; first step %.3g s, %.3g substeps a frame; "
-                "disk about %s a frame; about %s on 2 cores\n",
+                "disk about %s a frame\n",
                 bytesText(e.memory_bytes).c_str(), bytesText(e.available_bytes).c_str(), e.first_dt,
-                e.substeps_per_frame, bytesText(e.disk_bytes_per_frame).c_str(), wall);
+                e.substeps_per_frame, bytesText(e.disk_bytes_per_frame).c_str());
+  s += buf;
+  const RateProbe& p = e.probe;
+  if (p.ran)
+    std::snprintf(buf, sizeof buf,
+                  "  wall time about %.3g s solving, at %.3g particle-substeps/s measured here "
+                  "(probe: dx %.3g, %s particles, %lld substeps, %.2f s)\n",
+                  e.wall_seconds, e.rate, p.dx, countText(p.particles).c_str(), p.steps, p.seconds);
+  else
+    std::snprintf(buf, sizeof buf,
+                  "  wall time about %.3g s solving, at the 2-core machine's fixed %.3g "
+                  "particle-substeps/s (no probe: %s)\n",
+                  e.wall_seconds, e.rate, p.why_not.c_str());
   return s + buf;
 }
 
@@ -279,6 +295,14 @@ std::string estimateJson(const SceneEstimate& e) {
   j["substeps_per_frame"] = e.substeps_per_frame;
   j["disk_bytes_per_frame"] = e.disk_bytes_per_frame;
   j["wall_seconds"] = e.wall_seconds;
+  j["rate_particle_substeps_per_s"] = e.rate;
+  j["rate_from"] = e.probe.ran ? "probe" : "fixed";
+  const RateProbe& p = e.probe;
+  if (p.ran)
+    j["rate_probe"] = {{"dx", p.dx}, {"particles", p.particles}, {"steps", p.steps},
+                       {"seconds", p.seconds}};
+  else
+    j["rate_probe"] = {{"skipped", p.why_not}};
   return j.dump(2);
 }
 
@@ -293,8 +317,9 @@ std::vector<std::string> extremeWarnings(const SceneDesc& scene, const SceneEsti
     w.push_back(buf);
   }
   if (e.wall_seconds > 86400) {
-    std::snprintf(buf, sizeof buf, "%s: the run may take about %.3g days on 2 cores (%.3g particles)",
-                  scene.source_path.c_str(), e.wall_seconds / 86400, e.particles);
+    std::snprintf(buf, sizeof buf, "%s: the run may take about %.3g days %s (%.3g particles)",
+                  scene.source_path.c_str(), e.wall_seconds / 86400,
+                  e.probe.ran ? "on this machine" : "on 2 cores", e.particles);
     w.push_back(buf);
   }
   return w;
