@@ -6,6 +6,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "app/rate_probe.h"
 #include "app/run_scene.h"
 #include "import/estimate.h"
 #include "import/mesh_sampler.h"
@@ -82,9 +83,7 @@ int checkScene(const CheckOptions& options) {
                                         options.quality + "\"");
     SceneDesc scene = loadScene(options.scene_path);
     if (!options.quality.empty()) applyQuality(scene, options.quality);
-    const SceneEstimate e = estimateScene(scene);
-    for (const std::string& w : extremeWarnings(scene, e))
-      std::fprintf(stderr, "triad: warning: %s\n", w.c_str());
+    SceneEstimate e = estimateScene(scene);
     // A probe only of a scene that fits; the estimate is printed either way,
     // then the refusal.
     std::optional<InputError> unfit;
@@ -93,6 +92,12 @@ int checkScene(const CheckOptions& options) {
     } catch (const InputError& err) {
       unfit = err;
     }
+    RateProbe rate;
+    rate.why_not = unfit ? "the scene does not fit in memory" : "--no-probe";
+    if (!unfit && !options.no_probe) rate = probeRate(scene, e);
+    applyRate(e, rate);
+    for (const std::string& w : extremeWarnings(scene, e))
+      std::fprintf(stderr, "triad: warning: %s\n", w.c_str());
     nlohmann::json probe;
     if (!unfit && options.probe > 0) probe = probeScene(scene, options.probe);
     if (options.json) {

@@ -37,6 +37,9 @@ int main(int argc, char** argv) {
                       "Quality preset: draft (2x dx, fewer particles, larger steps), preview "
                       "(dx as written), final (dx / 2); sets solver.particles_per_cell, cfl and "
                       "transfer too. Without it the scene runs as written");
+  run_cmd->add_flag("--no-probe", run.no_probe,
+                    "Skip the short rate probe before the first frame (the estimate's wall time "
+                    "at a fixed rate)");
   run_cmd->add_flag("--resume", run.resume,
                     "Continue from the last complete frame's checkpoint in the output directory");
 
@@ -58,6 +61,8 @@ int main(int argc, char** argv) {
                    "Also build the scene and step it for about this many seconds: its measured "
                    "rate, step and whole-run time")
       ->check(CLI::Range(0.0, 3600.0));
+  check_cmd->add_flag("--no-probe", check.no_probe,
+                      "Skip the short rate probe: wall time at the 2-core machine's fixed rate");
 
   triad::CompareOptions compare;
   CLI::App* compare_cmd = app.add_subcommand(

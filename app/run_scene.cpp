@@ -11,6 +11,7 @@
 
 #include "app/frame_output.h"
 #include "app/interrupt.h"
+#include "app/rate_probe.h"
 #include "export/atomic_file.h"
 #include "export/run_record.h"
 #include "import/estimate.h"
@@ -36,6 +37,8 @@ void printSummary(const RunRecord& rec, const std::string& out_dir) {
   std::printf("\n%.3g particle-substeps/s on %d threads, peak memory %.1f MiB\n",
               solve > 0 ? double(rec.particle_steps) / solve : 0.0, rec.threads,
               double(rec.peak_rss_bytes) / (1024.0 * 1024.0));
+  std::printf("estimated before the run: %.3g s solving (%s rate)\n", rec.estimated_wall_seconds,
+              rec.rate_from.c_str());
   std::printf("cache: %s\n", out_dir.c_str());
 }
 
@@ -72,8 +75,22 @@ int runScene(const RunOptions& options) {
     if (!options.quality.empty()) applyQuality(scene, options.quality);
     // What the run will need, before anything is sampled: a scene that
     // cannot fit is refused, an extreme one said so at once.
-    const SceneEstimate estimate = estimateScene(scene);
+    SceneEstimate estimate = estimateScene(scene);
     requireFits(scene, estimate);
+    // This machine's rate for the scene, from a coarser copy stepped a
+    // moment: the estimate's wall time, in run.json and said at once.
+    RateProbe rate;
+    rate.why_not = "--no-probe";
+    if (!options.no_probe) rate = probeRate(scene, estimate);
+    applyRate(estimate, rate);
+    rec.estimated_wall_seconds = estimate.wall_seconds;
+    rec.estimated_rate = estimate.rate;
+    rec.rate_from = rate.ran ? "probe" : "fixed";
+    rec.probe_seconds = rate.ran ? rate.seconds : 0.0;
+    if (options.progress != ProgressMode::Quiet)
+      std::fprintf(stderr, "triad: estimate: about %.3g s solving, at %.3g particle-substeps/s (%s)\n",
+                   estimate.wall_seconds, estimate.rate,
+                   rate.ran ? "measured here by a probe" : ("fixed rate; " + rate.why_not).c_str());
     for (const std::string& w : extremeWarnings(scene, estimate))
       std::fprintf(stderr, "triad: warning: %s\n", w.c_str());
     world = buildSceneWorld(scene, mesh_cache);

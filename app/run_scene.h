@@ -13,6 +13,7 @@ struct RunOptions {
   ProgressMode progress = ProgressMode::Auto;
   bool resume = false;  // continue from the last complete frame's checkpoint
   std::string quality;  // --quality preset (import/quality.h); empty: the scene as written
+  bool no_probe = false;  // no rate probe before the first frame (app/rate_probe.h)
 };
 
 // Exit statuses of the command line contract.

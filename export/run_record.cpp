@@ -57,6 +57,10 @@ void writeRunRecord(const std::string& path, const RunRecord& rec) {
   nlohmann::ordered_json phases = nlohmann::ordered_json::object();
   for (const auto& [name, s] : rec.phase_seconds) phases[name] = s;
   j["wall_seconds"] = {{"total", rec.wall_seconds}, {"phases", phases}};
+  j["estimate"] = {{"wall_seconds", rec.estimated_wall_seconds},
+                   {"rate_particle_substeps_per_s", rec.estimated_rate},
+                   {"rate_from", rec.rate_from},
+                   {"probe_seconds", rec.probe_seconds}};
   const double solve = rec.phase_seconds.count("solve") ? rec.phase_seconds.at("solve") : 0.0;
   j["particle_substeps"] = rec.particle_steps;
   j["particle_substeps_per_second"] = solve > 0.0 ? double(rec.particle_steps) / solve : 0.0;

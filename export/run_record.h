@@ -33,6 +33,11 @@ struct RunRecord {
   uint64_t particle_steps = 0;
   std::map<std::string, double> phase_seconds;  // solver phases, output, setup
   double wall_seconds = 0.0;
+  // The estimate made before the first frame: solving wall time at the
+  // rate of the probe ("probe") or the fixed one ("fixed"), and what the
+  // probe itself took (0 without one).
+  double estimated_wall_seconds = 0.0, estimated_rate = 0.0, probe_seconds = 0.0;
+  std::string rate_from;
   size_t peak_rss_bytes = 0;
   size_t particle_bytes = 0;
   size_t grid_bytes = 0;

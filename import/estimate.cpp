@@ -30,10 +30,6 @@ constexpr double kSampleBytes = 90.0;
 // An elastic sample (a FEM node and its six tetrahedra); implicit solids
 // also keep each element's 12 x 12 stiffness.
 constexpr double kElasticSampleBytes = 1000.0, kImplicitSampleBytes = 8000.0;
-// Particle-substeps per second on the project's 2-core machine.
-constexpr double kRate = 9e6;
-
-Vec3d toVec(const Vec3Desc& a) { return Vec3d(a[0], a[1], a[2]); }
 
 // Lattice points of one axis in [lo, hi) of the domain, at in-cell offsets o.
 double axisPoints(double lo, double hi, double dmin, double dmax, double dx,
@@ -48,19 +44,75 @@ double axisPoints(double lo, double hi, double dmin, double dmax, double dx,
   return n;
 }
 
-double shapeVolume(const ShapeDesc& shape, const DomainDesc& d) {
+// A shape's volume and the extent of its bounding box (inside the domain
+// for boxes).
+struct ShapeSize {
+  double volume = 0;
+  Vec3d extent = Vec3d::Zero();
+};
+
+ShapeSize shapeSize(const ShapeDesc& shape, const DomainDesc& d) {
+  ShapeSize z;
   if (const auto* b = std::get_if<BoxDesc>(&shape)) {
-    double v = 1;
-    for (int a = 0; a < 3; ++a) v *= std::max(0.0, std::min(b->max[a], d.max[a]) - std::max(b->min[a], d.min[a]));
-    return v;
+    z.volume = 1;
+    for (int a = 0; a < 3; ++a) {
+      z.extent[a] = std::max(0.0, std::min(b->max[a], d.max[a]) - std::max(b->min[a], d.min[a]));
+      z.volume *= z.extent[a];
+    }
+    return z;
   }
-  if (const auto* s = std::get_if<SphereDesc>(&shape)) return 4.0 / 3.0 * M_PI * std::pow(s->radius, 3);
+  if (const auto* s = std::get_if<SphereDesc>(&shape)) {
+    z.volume = 4.0 / 3.0 * M_PI * std::pow(s->radius, 3);
+    z.extent = Vec3d::Constant(2 * s->radius);
+    return z;
+  }
   MeshDesc m = std::get<MeshDesc>(shape);
   if (m.sequence_digits > 0) {
     m.resolved_path = sequenceFrame(m.resolved_path, m.sequence_digits, 0);
     m.sequence_digits = 0;
   }
-  return std::abs(loadMesh(m).mesh.signedVolume());
+  const TriangleMesh mesh = loadMesh(m).mesh;
+  Vec3d lo, hi;
+  mesh.bounds(lo, hi);
+  z.volume = std::abs(mesh.signedVolume());
+  z.extent = hi - lo;
+  return z;
+}
+
+double shapeVolume(const ShapeDesc& shape, const DomainDesc& d) { return shapeSize(shape, d).volume; }
+
+// The speed at which a source's material leaves it along one axis: seeded
+// at v on the sites it empties, accelerated by a along the axis over the
+// shape's length L. Kept full while new material enters all along it,
+// steady flow leaves at u with u (u - v) = k a L: with a = 0, u = v (rho A
+// v); with v = 0 material seeded from rest evenly over the length falls
+// out in a mean (2/3) sqrt(2 L / a), so that k = 9/8 (u = 1.06 sqrt(a L)).
+// Measured on water and sand sources 2-8 cells tall over 0.25-1 s
+// (tests/test_estimate.cpp): v = 0 within 10% (sand, which has no
+// tension, 0.2%); v = 1 m/s down 2-6% at 4 cells tall, 17% at 8, 29% at
+// 2; v = 3 m/s 20% (the old |v| A estimate: 33% and 86% under).
+double exitSpeed(double v, double a, double L) {
+  constexpr double k = 9.0 / 8.0;
+  if (a < 0) v = -v, a = -a;
+  if (a == 0 || L <= 0) return std::abs(v);
+  // Against the acceleration and fast enough, the material leaves upstream.
+  if (v < 0 && v * v >= 4 * k * a * L) return 0.5 * (-v + std::sqrt(v * v - 4 * k * a * L));
+  return 0.5 * (v + std::sqrt(v * v + 4 * k * a * L));
+}
+
+// What a source emits after its fill: along each axis of its bounding box,
+// its material leaves through a face of area V / L at exitSpeed, from
+// emit.start to emit.end or the scene's end.
+double emittedParticles(const SceneDesc& scene, const ObjectDesc& o, double fill) {
+  const double end = std::min(o.emit->end, scene.frames.count / scene.frames.fps);
+  const double seconds = end - o.emit->start;
+  if (seconds <= 0) return 0;
+  const ShapeSize z = shapeSize(o.shape, scene.domain);
+  double per_second = 0;
+  for (int a = 0; a < 3; ++a)
+    if (z.extent[a] > 0)
+      per_second += exitSpeed(o.velocity[a], scene.gravity[a], z.extent[a]) / z.extent[a];
+  return fill * per_second * seconds;
 }
 
 // MPM particles a shape gets: exact for boxes on a k x k x k lattice.
@@ -129,11 +181,10 @@ SceneEstimate estimateScene(const SceneDesc& scene) {
         const double per = 66.0 + (probe.usesF() ? 36 : 0) + (probe.usesJ() ? 4 : 0) + kParticleOverhead;
         oe.particles = mpmParticles(o.shape, d, ppc);
         if (o.emit) {
-          // A source: its fill, then about a face of its shape flowing out
-          // at its speed while it runs.
-          const double face = std::pow(shapeVolume(o.shape, d), 2.0 / 3.0);
-          oe.particles += toVec(o.velocity).norm() * face * (o.emit->end - o.emit->start) * ppc /
-                          std::pow(d.dx, 3);
+          // A source: its fill (if it starts within the run), then what
+          // flows out of it while it runs.
+          if (o.emit->start >= scene.frames.count / scene.frames.fps) oe.particles = 0;
+          else oe.particles += emittedParticles(scene, o, oe.particles);
         }
         oe.bytes = oe.particles * per;
         e.particles += oe.particles;
@@ -169,12 +220,20 @@ SceneEstimate estimateScene(const SceneDesc& scene) {
   if (c > 0) e.first_dt = std::min(e.first_dt, scene.solver.cfl * d.dx / c);
   e.first_dt = std::min(e.first_dt, dt_solid);
   e.substeps_per_frame = 1.0 / (scene.frames.fps * e.first_dt);
-  const double substeps = e.substeps_per_frame * scene.frames.count;
-  e.wall_seconds = std::max(e.particles, 1.0) * substeps / kRate;
+  e.substeps = e.substeps_per_frame * scene.frames.count;
+  RateProbe fixed;
+  fixed.why_not = "not probed";
+  applyRate(e, fixed);
   if (scene.output.ply) e.disk_bytes_per_frame += 36.0 * e.particles;
   if (scene.output.vdb) e.disk_bytes_per_frame += 16.0 * e.particles / ppc;
   e.available_bytes = availableBytes();
   return e;
+}
+
+void applyRate(SceneEstimate& e, const RateProbe& probe) {
+  e.probe = probe;
+  e.rate = probe.ran && probe.rate > 0 ? probe.rate : kFixedRate;
+  e.wall_seconds = std::max(e.particles, 1.0) * e.substeps / e.rate;
 }
 
 void requireFits(const SceneDesc& scene, const SceneEstimate& e) {
@@ -202,13 +261,23 @@ std::string describeEstimate(const SceneEstimate& e) {
                   countText(o.particles).c_str(), bytesText(o.bytes).c_str());
     s += buf;
   }
-  char wall[32];
-  std::snprintf(wall, sizeof wall, "%.3g s", e.wall_seconds);
   std::snprintf(buf, sizeof buf,
                 "  memory about %s (the process's own included) of %s available; first step %.3g s, %.3g substeps a frame; "
-                "disk about %s a frame; about %s on 2 cores\n",
+                "disk about %s a frame\n",
                 bytesText(e.memory_bytes).c_str(), bytesText(e.available_bytes).c_str(), e.first_dt,
-                e.substeps_per_frame, bytesText(e.disk_bytes_per_frame).c_str(), wall);
+                e.substeps_per_frame, bytesText(e.disk_bytes_per_frame).c_str());
+  s += buf;
+  const RateProbe& p = e.probe;
+  if (p.ran)
+    std::snprintf(buf, sizeof buf,
+                  "  wall time about %.3g s solving, at %.3g particle-substeps/s measured here "
+                  "(probe: dx %.3g, %s particles, %lld substeps, %.2f s)\n",
+                  e.wall_seconds, e.rate, p.dx, countText(p.particles).c_str(), p.steps, p.seconds);
+  else
+    std::snprintf(buf, sizeof buf,
+                  "  wall time about %.3g s solving, at the 2-core machine's fixed %.3g "
+                  "particle-substeps/s (no probe: %s)\n",
+                  e.wall_seconds, e.rate, p.why_not.c_str());
   return s + buf;
 }
 
@@ -226,6 +295,14 @@ std::string estimateJson(const SceneEstimate& e) {
   j["substeps_per_frame"] = e.substeps_per_frame;
   j["disk_bytes_per_frame"] = e.disk_bytes_per_frame;
   j["wall_seconds"] = e.wall_seconds;
+  j["rate_particle_substeps_per_s"] = e.rate;
+  j["rate_from"] = e.probe.ran ? "probe" : "fixed";
+  const RateProbe& p = e.probe;
+  if (p.ran)
+    j["rate_probe"] = {{"dx", p.dx}, {"particles", p.particles}, {"steps", p.steps},
+                       {"seconds", p.seconds}};
+  else
+    j["rate_probe"] = {{"skipped", p.why_not}};
   return j.dump(2);
 }
 
@@ -240,8 +317,9 @@ std::vector<std::string> extremeWarnings(const SceneDesc& scene, const SceneEsti
     w.push_back(buf);
   }
   if (e.wall_seconds > 86400) {
-    std::snprintf(buf, sizeof buf, "%s: the run may take about %.3g days on 2 cores (%.3g particles)",
-                  scene.source_path.c_str(), e.wall_seconds / 86400, e.particles);
+    std::snprintf(buf, sizeof buf, "%s: the run may take about %.3g days %s (%.3g particles)",
+                  scene.source_path.c_str(), e.wall_seconds / 86400,
+                  e.probe.ran ? "on this machine" : "on 2 cores", e.particles);
     w.push_back(buf);
   }
   return w;

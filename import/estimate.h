@@ -19,6 +19,18 @@ struct ObjectEstimate {
   double bytes = 0;
 };
 
+// The short probe of this machine's rate (app/rate_probe.h), as the
+// estimate reports it.
+struct RateProbe {
+  bool ran = false;
+  double rate = 0.0;     // particle-substeps per second (MPM particles; solids' time included)
+  double dx = 0.0;       // the probe's dx
+  double particles = 0;  // MPM particles of the probe's world when timed
+  long long steps = 0;   // substeps timed (after the warm-up)
+  double seconds = 0.0;  // the probe's whole cost: build, warm-up and timed steps
+  std::string why_not;   // when it did not run: why
+};
+
 struct SceneEstimate {
   std::vector<ObjectEstimate> objects;  // scene order
   double particles = 0;                 // MPM particles in all
@@ -28,10 +40,22 @@ struct SceneEstimate {
   double substeps_per_frame = 0;
   double disk_bytes_per_frame = 0;      // PLY particles and VDB volumes, roughly
   double available_bytes = 0;           // physical memory, or a lower process limit
-  // Wall seconds at a rate measured on the project's 2-core machine
-  // (bench/RESULTS.md): for an order of magnitude, not a promise.
+  double substeps = 0;                  // substeps of the whole run, at the first step
+  // Wall seconds: particles x substeps at `rate`, particle-substeps per
+  // second measured here by a probe, or without one the fixed rate of the
+  // project's 2-core machine (bench/RESULTS.md). Solving only: output and
+  // the build come on top. For an order of magnitude, not a promise.
   double wall_seconds = 0;
+  double rate = 0;
+  RateProbe probe;  // probe.ran: the rate is this machine's
 };
+
+// Particle-substeps per second on the project's 2-core machine.
+constexpr double kFixedRate = 9e6;
+
+// Sets the estimate's rate and wall time from a probe, or where it did not
+// run from kFixedRate (its why_not said in the estimate).
+void applyRate(SceneEstimate& e, const RateProbe& probe);
 
 // Estimates `scene` (meshes are read for their volume, not voxelized).
 // Throws InputError for a mesh it cannot read.

@@ -4,6 +4,7 @@
 #include <cctype>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <iterator>
 #include <limits>
@@ -15,6 +16,7 @@
 
 #include <Eigen/Geometry>
 
+#include <assimp/BaseImporter.h>
 #include <assimp/Exporter.hpp>
 #include <assimp/Importer.hpp>
 #include <assimp/postprocess.h>
@@ -57,13 +59,23 @@ struct DisjointSets {
   void unite(int a, int b) { parent[find(a)] = find(b); }
 };
 
+// The scene graph as assimp left it is checked as it is walked: counts
+// without arrays, missing children and hierarchies too deep to be a tree
+// are refused, naming the fault.
 void collectNode(const aiScene* scene, const aiNode* node, const aiMatrix4x4& parent,
-                 TriangleMesh& out, size_t& non_triangles, const std::string& path) {
+                 TriangleMesh& out, size_t& non_triangles, const std::string& path, int depth = 0) {
+  auto invalid = [&](const std::string& why) { return InputError(path, "invalid mesh: " + why); };
+  if (depth > 1000) throw invalid("the node hierarchy is more than 1000 levels deep (a cycle?)");
+  if ((node->mNumMeshes && !node->mMeshes) || (node->mNumChildren && !node->mChildren))
+    throw invalid("a node counts meshes or children it does not have");
   const aiMatrix4x4 m = parent * node->mTransformation;
   for (unsigned k = 0; k < node->mNumMeshes; ++k) {
     if (node->mMeshes[k] >= scene->mNumMeshes)
       throw InputError(path, "invalid mesh: a node refers to a mesh that does not exist");
     const aiMesh* mesh = scene->mMeshes[node->mMeshes[k]];
+    if (!mesh || (mesh->mNumVertices && !mesh->mVertices) || (mesh->mNumFaces && !mesh->mFaces))
+      throw invalid("mesh " + std::to_string(node->mMeshes[k]) +
+                    " counts vertices or faces it does not have");
     const int base = static_cast<int>(out.positions.size());
     for (unsigned v = 0; v < mesh->mNumVertices; ++v) {
       const aiVector3D p = m * mesh->mVertices[v];
@@ -71,6 +83,9 @@ void collectNode(const aiScene* scene, const aiNode* node, const aiMatrix4x4& pa
     }
     for (unsigned f = 0; f < mesh->mNumFaces; ++f) {
       const aiFace& face = mesh->mFaces[f];
+      if (face.mNumIndices && !face.mIndices)
+        throw invalid("face " + std::to_string(f) + " of mesh " +
+                      std::to_string(node->mMeshes[k]) + " counts indices it does not have");
       if (face.mNumIndices != 3) {
         ++non_triangles;
         continue;
@@ -87,8 +102,10 @@ void collectNode(const aiScene* scene, const aiNode* node, const aiMatrix4x4& pa
       out.triangles.push_back(t);
     }
   }
-  for (unsigned c = 0; c < node->mNumChildren; ++c)
-    collectNode(scene, node->mChildren[c], m, out, non_triangles, path);
+  for (unsigned c = 0; c < node->mNumChildren; ++c) {
+    if (!node->mChildren[c]) throw invalid("a node's child is missing");
+    collectNode(scene, node->mChildren[c], m, out, non_triangles, path, depth + 1);
+  }
 }
 
 // Merges vertices at exactly the same position; returns how many were merged.
@@ -326,7 +343,8 @@ namespace {
 // fuzz/fuzz_mesh.cpp). A PLY file's header is checked here first, to its
 // grammar: "ply", a format line, then comment, obj_info, element NAME
 // COUNT, property TYPE NAME and property list TYPE TYPE NAME lines up to
-// end_header, every element with at least one property.
+// end_header, every element with at least one property, and no control
+// character but tabs.
 void checkPlyHeader(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   std::string line;
@@ -344,6 +362,16 @@ void checkPlyHeader(const std::string& path) {
   while (std::getline(in, line)) {
     ++n;
     if (n > 10000) fail(n, "no end_header in the first 10000 lines");
+    // assimp separates words by spaces and tabs only: "end_header" and a
+    // vertical tab never ends its header (an endless loop).
+    for (size_t c = 0; c < line.size(); ++c) {
+      const unsigned char b = static_cast<unsigned char>(line[c]);
+      if ((b < 0x20 && b != '\t' && !(b == '\r' && c + 1 == line.size())) || b == 0x7f) {
+        char hex[8];
+        std::snprintf(hex, sizeof hex, "0x%02x", b);
+        fail(n, std::string("a control character (") + hex + ") in the header");
+      }
+    }
     std::istringstream words(trim(line));
     std::string key;
     words >> key;
@@ -445,6 +473,51 @@ void checkGltfIndices(const std::string& path) {
   }
 }
 
+// Where several of assimp's importers claim a file's extension (glTF 1
+// and 2 both claim .gltf) and none of them recognises the file, assimp
+// 5.2 offers it to every importer it has, and the first that finds its
+// own signature in it reads it: a PLY header inside a .gltf reached the
+// PLY reader's endless loop past checkPlyHeader, and other readers of
+// formats never meant here (found by fuzz/fuzz_mesh.cpp). So an importer
+// keeps only the importers that claim the extension; a file that none of
+// them reads is refused as unreadable, never guessed at.
+void keepImportersFor(Assimp::Importer& importer, const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  if (!ext.empty()) ext.erase(0, 1);
+  for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+  std::vector<Assimp::BaseImporter*> others;
+  for (size_t i = 0; i < importer.GetImporterCount(); ++i) {
+    const aiImporterDesc* d = importer.GetImporterInfo(i);
+    std::istringstream claimed(d && d->mFileExtensions ? d->mFileExtensions : "");
+    bool claims = false;
+    for (std::string e; claimed >> e;) claims = claims || e == ext;
+    if (!claims) others.push_back(importer.GetImporter(i));
+  }
+  if (others.size() == importer.GetImporterCount())
+    throw InputError(path, "cannot read the mesh: no importer reads files ending in \"." + ext +
+                               "\" (OBJ, STL, PLY, glTF and the other formats of assimp by their "
+                               "extension)");
+  // Unregistered importers are no longer the Importer's to delete.
+  for (Assimp::BaseImporter* p : others) {
+    importer.UnregisterLoader(p);
+    delete p;
+  }
+}
+
+// assimp 5.2 (as Debian builds it, with its assertions on) aborts the
+// process in its triangulation on a face without vertex indices (a binary
+// PLY face whose list count is 0: found by fuzz/fuzz_mesh.cpp), and its
+// validation lets such a face through. Refused here, before that step.
+void checkFaces(const aiScene* scene, const std::string& path) {
+  for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
+    const aiMesh* mesh = scene->mMeshes[m];
+    for (unsigned f = 0; f < mesh->mNumFaces; ++f)
+      if (mesh->mFaces[f].mNumIndices == 0)
+        throw InputError(path, "invalid mesh: face " + std::to_string(f) + " of mesh " +
+                                   std::to_string(m) + " has no vertex index");
+  }
+}
+
 }  // namespace
 
 MeshLoadResult loadMeshFile(const std::string& path) {
@@ -472,18 +545,23 @@ MeshLoadResult loadMesh(const MeshDesc& desc) {
     throw InputError(path, "cannot read the mesh: the file is empty");
 
   Assimp::Importer importer;
-  // Triangulate polygons; join identical vertices; validate indices and
-  // remove invalid data. Winding is repaired here, never by assimp.
-  const unsigned flags = aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
-                         aiProcess_ValidateDataStructure | aiProcess_FindInvalidData;
-  const aiScene* scene = importer.ReadFile(path, flags);
-  if (!scene) {
+  keepImportersFor(importer, path);
+  auto failed = [&]() {
     std::string why = importer.GetErrorString();
     if (why.empty()) why = "unknown format or corrupt file";
-    throw InputError(path, "cannot read the mesh: " + why);
-  }
+    return InputError(path, "cannot read the mesh: " + why);
+  };
+  // Read and validate first; post-process only what passed checkFaces.
+  const aiScene* scene = importer.ReadFile(path, aiProcess_ValidateDataStructure);
+  if (!scene) throw failed();
   if (!scene->mRootNode || scene->mNumMeshes == 0)
     throw InputError(path, "the file holds no triangles (no mesh at all)");
+  checkFaces(scene, path);
+  // Triangulate polygons; join identical vertices; remove invalid data.
+  // Winding is repaired here, never by assimp.
+  scene = importer.ApplyPostProcessing(aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
+                                       aiProcess_FindInvalidData);
+  if (!scene) throw failed();
 
   MeshLoadResult r;
   size_t non_triangles = 0;

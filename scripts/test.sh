@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # README command (b): install what is missing, build, and run every test:
 # the whole suite on the optimised build, then the fast unit tests again
-# under AddressSanitizer and UndefinedBehaviorSanitizer, then half a minute of
-# fuzzing the scene loader.
+# under AddressSanitizer and UndefinedBehaviorSanitizer, then half a minute
+# each of fuzzing the scene loader and the mesh importer.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
@@ -21,6 +21,5 @@ jobs=$(nproc)
 (cd build && ctest --output-on-failure -j "$jobs")
 scripts/build.sh sanitize triad_unit_tests
 (cd build-sanitize && ASAN_OPTIONS=detect_leaks=1 ctest --output-on-failure -L unit -j "$jobs")
-# The scene loader under libFuzzer for half a minute (scripts/fuzz.sh says why
-# the mesh importer's target is run by hand only, for now).
-scripts/fuzz.sh 30 scene
+# The scene loader and the mesh importer under libFuzzer, half a minute each.
+scripts/fuzz.sh 30 scene mesh

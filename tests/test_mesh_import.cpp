@@ -485,6 +485,30 @@ TEST_F(MeshImport, BrokenFilesAreInputErrors) {
                    "header line 3: unknown keyword \"elemen\"");
   expectInputError(writeText("orphan.ply", "ply\nformat ascii 1.0\nproperty float32 x\nend_header\n"),
                    "header line 3: a property before any element");
+  // "end_header" and a vertical tab: assimp's reader never ends the header.
+  const std::string cube = "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\n"
+                           "property float y\nproperty float z\nelement face 1\n"
+                           "property list uchar int vertex_indices\nend_header";
+  const std::string quad = "\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n";
+  expectInputError(writeText("vtab.ply", cube + "\v" + quad),
+                   "header line 9: a control character (0x0b) in the header");
+  // A binary face whose list count is 0: assimp's triangulation aborts
+  // the process on it (its validation lets it through).
+  std::string empty_face = "ply\nformat binary_little_endian 1.0\nelement vertex 3\n"
+                           "property float x\nproperty float y\nproperty float z\nelement face 2\n"
+                           "property list uchar int vertex_indices\nend_header\n";
+  const float tri[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+  empty_face.append(reinterpret_cast<const char*>(tri), sizeof tri);
+  const int32_t ids[3] = {0, 1, 2};
+  empty_face.push_back(3);
+  empty_face.append(reinterpret_cast<const char*>(ids), sizeof ids);
+  empty_face.push_back(0);
+  expectInputError(writeText("empty_face.ply", empty_face), "face 1 of mesh 0 has no vertex index");
+  // A .gltf that neither glTF importer reads was offered to every format
+  // assimp has (here PLY's, and its endless loop): now only glTF's judge.
+  expectInputError(writeText("ply_inside.gltf", cube + "\v" + quad), "cannot read the mesh");
+  expectInputError(writeText("obj_inside.gltf", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"),
+                   "cannot read the mesh");
 }
 
 // Real-world files, as other tools wrote them: Debian's assimp-testmodels
