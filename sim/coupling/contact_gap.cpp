@@ -10,6 +10,7 @@
 #include <cmath>
 
 #include "sim/coupling/coupling.h"
+#include "sim/coupling/node_index.h"
 #include "sim/mpm/particles.h"
 
 namespace triad {
@@ -20,11 +21,6 @@ namespace {
 constexpr float kFar = 1e30f;
 // Nodes with no solid sample keep the empty node's distance.
 constexpr float kNoDistance = -1e29f;
-
-inline int localNodeOf(int x, int y, int z) {
-  return ((x & (kBlockSize - 1)) * kBlockSize + (y & (kBlockSize - 1))) * kBlockSize +
-         (z & (kBlockSize - 1));
-}
 
 }  // namespace
 
@@ -70,12 +66,10 @@ void GridCoupling::measureGaps(const std::vector<ParticleSet>& sets, const GridL
           for (int a = 0; a < 3; ++a)
             for (int b = 0; b < 3; ++b)
               for (int c = 0; c < 3; ++c) {
-                const int d = (((l.x() + a) >> kBlockBits) << 2) |
-                              (((l.y() + b) >> kBlockBits) << 1) | ((l.z() + c) >> kBlockBits);
-                const int32_t sl = slot[size_t(d)];
+                const int32_t sl = slot[size_t(neighbourOf(l, a, b, c))];
                 if (sl < 0) continue;
                 const uint32_t i =
-                    uint32_t(sl) * kBlockNodes + localNodeOf(l.x() + a, l.y() + b, l.z() + c);
+                    uint32_t(sl) * kBlockNodes + localNode(l.x() + a, l.y() + b, l.z() + c);
                 if (slot_moving_[size_t(sl)]) node[n++] = i;
                 const SolidNode& g = nodes_[i];
                 if (g.phi < kNoDistance) continue;

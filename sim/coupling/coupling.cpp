@@ -5,6 +5,8 @@
 #include <limits>
 #include <map>
 
+#include "sim/coupling/node_index.h"
+
 namespace triad {
 
 namespace {
@@ -17,20 +19,6 @@ constexpr int kNewtonIterations = 50;
 // A node no solid reaches: no mass, and as far outside as can be.
 const GridCoupling::SolidNode kEmptyNode{0,         {0, 0, 0}, {0, 0, 0}, 0, 0, {0, 0, 0},
                                          -1e30f,    {0, 0, 0}, {0, 0, 0}, 0, 0, 0};
-
-// Node offset inside a grid block.
-inline int localNode(int x, int y, int z) {
-  return ((x & (kBlockSize - 1)) * kBlockSize + (y & (kBlockSize - 1))) * kBlockSize +
-         (z & (kBlockSize - 1));
-}
-
-// Which of a base block's eight neighbours (dx*4 + dy*2 + dz) holds the
-// node at offset o from a base node at local position l (0..3) in it.
-inline int neighbourOf(const Vec3i& l, int a, int b, int c) {
-  return (((l.x() + a) >> kBlockBits) << 2) | (((l.y() + b) >> kBlockBits) << 1) |
-         ((l.z() + c) >> kBlockBits);
-}
-
 
 // Calls f(w, slot node index, node - x in cells) for every node of point x's quadratic stencil
 // that lies in one of base block blk's eight grid blocks with a slot.
@@ -147,16 +135,12 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
       if (block_slot_[gb] == kNoSlot) {
         block_slot_[gb] = int32_t(slot_block_.size());
         slot_block_.push_back(uint32_t(gb));
+        slot_moving_.push_back(1);  // these runs are of solids that move
       }
       blk.slot[d] = block_slot_[gb];
       any = true;
     }
     if (any) {
-      for (int d = 0; d < 8; ++d)
-        if (blk.slot[d] != kNoSlot) {
-          if (slot_moving_.size() <= size_t(blk.slot[d])) slot_moving_.resize(size_t(blk.slot[d]) + 1, 0);
-          slot_moving_[size_t(blk.slot[d])] = 1;
-        }
       // order_ holds run indices as (start, end, solid) triples.
       for (size_t k = r; k < e; ++k) {
         order_.push_back(runs[k].start);
@@ -182,6 +166,7 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
       if (block_slot_[gb] == kNoSlot) {
         block_slot_[gb] = int32_t(slot_block_.size());
         slot_block_.push_back(uint32_t(gb));
+        slot_moving_.push_back(0);  // fixed solids alone
       }
       fixed_copy.emplace_back(block_slot_[gb], f);
       ++gb;
@@ -189,7 +174,6 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
     }
   }
   nodes_.assign(slot_block_.size() * kBlockNodes, kEmptyNode);
-  slot_moving_.resize(slot_block_.size(), 0);
   for (const auto& [slot, f] : fixed_copy)
     std::copy_n(&fixed_nodes_[f * kBlockNodes], kBlockNodes, &nodes_[size_t(slot) * kBlockNodes]);
   for (auto& c : colour_blocks_) c.clear();
