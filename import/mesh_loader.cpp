@@ -12,6 +12,8 @@
 #include <fstream>
 #include <numeric>
 #include <sstream>
+#include <stdexcept>
+#include <string>
 #include <unordered_map>
 
 #include <Eigen/Geometry>
@@ -25,6 +27,32 @@
 #include <nlohmann/json.hpp>
 
 #include "sim/errors.h"
+
+// assimp as Debian builds it keeps its internal checks (ai_assert) on, and a
+// failed one aborts the process: one corrupt file would take a whole run
+// down (fuzz/fuzz_mesh.cpp found a glTF 1.0 primitive whose index accessor
+// has no valid data, which aborts in glTFImporter). The library's own hook
+// for this (setAiAssertHandler) is not exported by that build, but every
+// check calls the handler through this exported symbol, which the program's
+// own definition interposes. It throws instead: assimp's importers catch
+// std::exception and report a failed import, and ApplyPostProcessing
+// returns no scene; loadMesh then names the failed check.
+namespace Assimp {
+void aiAssertViolation(const char* expression, const char* file, int line);
+}
+
+namespace {
+thread_local std::string assimp_failed_check;
+}
+
+void Assimp::aiAssertViolation(const char* expression, const char* file, int line) {
+  std::string where = file ? file : "?";
+  const size_t slash = where.find_last_of('/');
+  if (slash != std::string::npos) where.erase(0, slash + 1);
+  assimp_failed_check = "assimp's internal check failed (" + std::string(expression ? expression : "?") +
+                        " at " + where + ":" + std::to_string(line) + ")";
+  throw std::runtime_error(assimp_failed_check);
+}
 
 namespace triad {
 
@@ -546,8 +574,10 @@ MeshLoadResult loadMesh(const MeshDesc& desc) {
 
   Assimp::Importer importer;
   keepImportersFor(importer, path);
+  assimp_failed_check.clear();
   auto failed = [&]() {
     std::string why = importer.GetErrorString();
+    if (why.empty() || why == "Unknown exception") why = assimp_failed_check;
     if (why.empty()) why = "unknown format or corrupt file";
     return InputError(path, "cannot read the mesh: " + why);
   };

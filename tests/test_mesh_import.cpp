@@ -509,6 +509,22 @@ TEST_F(MeshImport, BrokenFilesAreInputErrors) {
   expectInputError(writeText("ply_inside.gltf", cube + "\v" + quad), "cannot read the mesh");
   expectInputError(writeText("obj_inside.gltf", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"),
                    "cannot read the mesh");
+  // A glTF 1.0 primitive whose index accessor has no buffer view: assimp's
+  // internal check on the indexer used to abort the process (found by
+  // fuzz/fuzz_mesh.cpp); the failed check is now an input error naming it.
+  const std::string gltf1 =
+      R"({"asset": {"version": "1.0"},
+          "accessors": {"idx": {"componentType": 5123, "count": 3, "type": "SCALAR"},
+                        "pos": {"bufferView": "bv", "byteOffset": 0, "componentType": 5126,
+                                "count": 3, "type": "VEC3"}},
+          "bufferViews": {"bv": {"buffer": "b", "byteOffset": 0, "byteLength": 36}},
+          "buffers": {"b": {"byteLength": 36, "uri": "data:application/octet-stream;base64,)"
+      R"(AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA"}},
+          "meshes": {"m": {"primitives": [{"attributes": {"POSITION": "pos"},
+                                           "indices": "idx", "mode": 4}]}},
+          "nodes": {"n": {"meshes": ["m"]}}, "scenes": {"s": {"nodes": ["n"]}}, "scene": "s"})";
+  expectInputError(writeText("indices_without_data.gltf", gltf1),
+                   "assimp's internal check failed (data.IsValid()");
 }
 
 // Real-world files, as other tools wrote them: Debian's assimp-testmodels
