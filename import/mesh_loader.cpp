@@ -26,6 +26,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "import/mesh_precheck.h"
 #include "sim/errors.h"
 
 // assimp as Debian builds it keeps its internal checks (ai_assert) on, and a
@@ -366,146 +367,11 @@ void repairMesh(TriangleMesh& mesh, MeshLoadResult& report) {
 
 namespace {
 
-// assimp 5.2's PLY reader loops for ever on some malformed headers (an
-// element without properties, a property before any element: found by
-// fuzz/fuzz_mesh.cpp). A PLY file's header is checked here first, to its
-// grammar: "ply", a format line, then comment, obj_info, element NAME
-// COUNT, property TYPE NAME and property list TYPE TYPE NAME lines up to
-// end_header, every element with at least one property, and no control
-// character but tabs.
-void checkPlyHeader(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::string line;
-  auto fail = [&](int n, const std::string& why) {
-    throw InputError(path, "not a valid PLY file: header line " + std::to_string(n) + ": " + why);
-  };
-  auto trim = [](std::string l) {
-    while (!l.empty() && (l.back() == '\r' || l.back() == ' ' || l.back() == '\t')) l.pop_back();
-    return l;
-  };
-  if (!std::getline(in, line) || trim(line) != "ply") fail(1, "expected \"ply\"");
-  int n = 1, elements = 0, properties = 0;
-  std::string element;
-  bool format = false;
-  while (std::getline(in, line)) {
-    ++n;
-    if (n > 10000) fail(n, "no end_header in the first 10000 lines");
-    // assimp separates words by spaces and tabs only: "end_header" and a
-    // vertical tab never ends its header (an endless loop).
-    for (size_t c = 0; c < line.size(); ++c) {
-      const unsigned char b = static_cast<unsigned char>(line[c]);
-      if ((b < 0x20 && b != '\t' && !(b == '\r' && c + 1 == line.size())) || b == 0x7f) {
-        char hex[8];
-        std::snprintf(hex, sizeof hex, "0x%02x", b);
-        fail(n, std::string("a control character (") + hex + ") in the header");
-      }
-    }
-    std::istringstream words(trim(line));
-    std::string key;
-    words >> key;
-    if (key == "comment" || key == "obj_info") continue;
-    if (key == "format") {
-      std::string kind, version;
-      words >> kind >> version;
-      if (kind != "ascii" && kind != "binary_little_endian" && kind != "binary_big_endian")
-        fail(n, "expected a format of ascii, binary_little_endian or binary_big_endian, got \"" +
-                    kind + "\"");
-      format = true;
-      continue;
-    }
-    if (key == "element") {
-      if (elements > 0 && properties == 0) fail(n, "element \"" + element + "\" has no property");
-      long long count = -1;
-      if (!(words >> element >> count) || count < 0)
-        fail(n, "expected \"element NAME COUNT\", got \"" + trim(line) + "\"");
-      ++elements;
-      properties = 0;
-      continue;
-    }
-    if (key == "property") {
-      if (elements == 0) fail(n, "a property before any element");
-      std::string type, a, b;
-      if (!(words >> type >> a)) fail(n, "expected \"property TYPE NAME\"");
-      if (type == "list" && !(words >> b)) fail(n, "expected \"property list TYPE TYPE NAME\"");
-      ++properties;
-      continue;
-    }
-    if (key == "end_header") {
-      if (!format) fail(n, "no format line before end_header");
-      if (elements == 0) fail(n, "no element");
-      if (properties == 0) fail(n, "element \"" + element + "\" has no property");
-      return;
-    }
-    fail(n, "unknown keyword \"" + key + "\"");
-  }
-  fail(n, "the header has no end_header");
-}
-
-// assimp drops a glTF triangle whose index is past its vertices, which
-// then reads as a hole that the repair closes. The indices of every
-// primitive of a .gltf file (buffers in files next to it) are checked here
-// first, so that the fault is named. Anything this check cannot read is
-// left to assimp.
-void checkGltfIndices(const std::string& path) {
-  nlohmann::json g;
-  try {
-    std::ifstream in(path, std::ios::binary);
-    g = nlohmann::json::parse(in);
-  } catch (const std::exception&) {
-    return;
-  }
-  try {
-    const auto& accessors = g.at("accessors");
-    const auto& views = g.at("bufferViews");
-    const auto& buffers = g.at("buffers");
-    std::vector<std::string> data(buffers.size());
-    const std::filesystem::path dir = std::filesystem::path(path).parent_path();
-    const auto& meshes = g.at("meshes");
-    for (size_t m = 0; m < meshes.size(); ++m) {
-      const auto& prims = meshes[m].at("primitives");
-      for (size_t p = 0; p < prims.size(); ++p) {
-        if (!prims[p].contains("indices")) continue;
-        const auto& idx = accessors.at(prims[p].at("indices").get<size_t>());
-        const auto& pos = accessors.at(prims[p].at("attributes").at("POSITION").get<size_t>());
-        const size_t vertices = pos.at("count").get<size_t>();
-        const auto& view = views.at(idx.at("bufferView").get<size_t>());
-        const size_t b = view.at("buffer").get<size_t>();
-        const std::string uri = buffers.at(b).at("uri").get<std::string>();
-        if (uri.rfind("data:", 0) == 0) continue;
-        if (data[b].empty()) {
-          std::ifstream bin(dir / uri, std::ios::binary);
-          data[b].assign(std::istreambuf_iterator<char>(bin), {});
-        }
-        const int type = idx.at("componentType").get<int>();
-        const size_t size = type == 5121 ? 1 : type == 5123 ? 2 : type == 5125 ? 4 : 0;
-        if (size == 0) continue;
-        const size_t stride = view.value("byteStride", size);
-        const size_t start = view.value("byteOffset", size_t(0)) + idx.value("byteOffset", size_t(0));
-        const size_t count = idx.at("count").get<size_t>();
-        for (size_t k = 0; k < count; ++k) {
-          const size_t at = start + k * stride;
-          if (at + size > data[b].size()) break;  // a short buffer: assimp says so
-          uint32_t v = 0;
-          std::memcpy(&v, data[b].data() + at, size);  // little-endian, as glTF is
-          if (v >= vertices)
-            throw InputError(path, "invalid mesh: primitive " + std::to_string(p) + " of mesh " +
-                                       std::to_string(m) + " uses vertex index " +
-                                       std::to_string(v) + " (index " + std::to_string(k) +
-                                       "), but it has only " + std::to_string(vertices) +
-                                       " vertices");
-        }
-      }
-    }
-  } catch (const nlohmann::json::exception&) {
-    return;  // not the layout this check reads: assimp judges
-  }
-}
-
 // Where several of assimp's importers claim a file's extension (glTF 1
 // and 2 both claim .gltf) and none of them recognises the file, assimp
 // 5.2 offers it to every importer it has, and the first that finds its
 // own signature in it reads it: a PLY header inside a .gltf reached the
-// PLY reader's endless loop past checkPlyHeader, and other readers of
+// PLY reader's endless loop past checkPly, and other readers of
 // formats never meant here (found by fuzz/fuzz_mesh.cpp). So an importer
 // keeps only the importers that claim the extension; a file that none of
 // them reads is refused as unreadable, never guessed at.
@@ -564,7 +430,8 @@ MeshLoadResult loadMesh(const MeshDesc& desc) {
   {
     std::string ext = std::filesystem::path(path).extension().string();
     for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
-    if (ext == ".ply") checkPlyHeader(path);
+    if (ext == ".ply") checkPly(path);
+    if (ext == ".gltf" || ext == ".glb") checkGltfLayout(path);
     if (ext == ".gltf") checkGltfIndices(path);
   }
   if (!std::ifstream(path, std::ios::binary))

@@ -21,7 +21,7 @@ flags=(-std=c++17 -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recov
        -I. -I/usr/include/eigen3)
 clang++ "${flags[@]}" fuzz/fuzz_scene.cpp import/scene_file.cpp import/scene_loader.cpp \
   import/param_dict.cpp -o "$out/fuzz_scene"
-clang++ "${flags[@]}" fuzz/fuzz_mesh.cpp import/mesh_loader.cpp sim/shot/animation.cpp \
+clang++ "${flags[@]}" fuzz/fuzz_mesh.cpp import/mesh_loader.cpp import/mesh_precheck.cpp sim/shot/animation.cpp \
   -lassimp -o "$out/fuzz_mesh"
 # Seeds: the corpora, every scene of the repository, its meshes (first
 # byte: the format, as fuzz_mesh reads it).
