@@ -9,6 +9,9 @@
 #   scripts/fuzz.sh [SECONDS] [scene] [mesh]   (both targets when none named)
 # An input slower than 30 s is a hang (the inputs take milliseconds; the
 # margin is for a machine busy with other work).
+# FUZZ_SEED=N fixes libFuzzer's seed: the same inputs in the same order on
+# every machine, so that what passes here passes in CI (scripts/test.sh
+# sets it; by hand, leave it unset to explore with a new seed each run).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-60}
@@ -42,7 +45,9 @@ export ASAN_OPTIONS=detect_leaks=0
 # The whole report is in build-fuzz/TARGET.log; on a failure its error part
 # is printed.
 for t in "${targets[@]}"; do
-  if ! (cd "$out" && "./fuzz_$t" -max_total_time="$seconds" -timeout=30 -rss_limit_mb=2048 \
+  seed=()
+  [ -n "${FUZZ_SEED:-}" ] && seed=(-seed="$FUZZ_SEED")
+  if ! (cd "$out" && "./fuzz_$t" "${seed[@]}" -max_total_time="$seconds" -timeout=30 -rss_limit_mb=2048 \
           -print_final_stats=1 "$t" > "$t.log" 2>&1); then
     grep -A40 -m1 "ERROR\|assert" "$out/$t.log" | head -60
     tail -12 "$out/$t.log"
