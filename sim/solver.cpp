@@ -248,10 +248,10 @@ void Solver::predictSolids(double dt) {
     points_.phi.insert(points_.phi.end(), b.phi.begin(), b.phi.end());
     points_.point_mass.resize(first + n, b.sample_mass);
     if (b.deform) {
-      // Samples ride on the sequence's surface now, then the animation's pose.
-      const Mat3d A = (b.state.q_principal * b.rest_principal.conjugate()).toRotationMatrix();
-      b.deform->placeAll(world_.time, A, b.pivot, b.state.x, b.state.v, b.omega(), points_.x,
-                         points_.v, points_.n, first);
+      // Placed by poseAt: the sequence's surface now, then the animation's pose.
+      std::copy(b.placed->x.begin(), b.placed->x.end(), points_.x.begin() + std::ptrdiff_t(first));
+      std::copy(b.placed->v.begin(), b.placed->v.end(), points_.v.begin() + std::ptrdiff_t(first));
+      std::copy(b.placed->n.begin(), b.placed->n.end(), points_.n.begin() + std::ptrdiff_t(first));
       continue;
     }
     const Mat3f R = b.rotation().cast<float>();
@@ -295,6 +295,7 @@ void Solver::predictSolids(double dt) {
           }
         if (last) break;
         for (const auto& [plane, body] : contact_bodies_) {
+          if (world_.bodies[body].fixed) continue;  // moved by nothing here
           NodePlane& pl = contacts.planes[plane];
           const Vec3d surface = contact_surface_[plane];
           pl.velocity = world_.bodies[body].velocityAt(surface);
@@ -337,7 +338,6 @@ FemContacts Solver::elasticContacts(const ElasticSolid& e, double dt) {
   contact_surface_.clear();
   for (size_t k = 0; k < world_.bodies.size(); ++k) {
     const RigidBody& b = world_.bodies[k];
-    if (b.deform) continue;  // its sample lattice is frame 0's
     const Mat3d R = b.rotation();
     const double mu = std::sqrt(double(e.friction) * double(b.friction));
     for (size_t i = 0; i < fem.nodes(); ++i) {
@@ -347,9 +347,10 @@ FemContacts Solver::elasticContacts(const ElasticSolid& e, double dt) {
       if (q < 0) continue;
       NodePlane& pl = c.planes.emplace_back();
       pl.node = int(i);
-      pl.n = R * b.n[q].cast<double>();
-      const Vec3d surface = b.state.x + R * b.r[q].cast<double>() - double(b.phi[q]) * pl.n;
-      pl.velocity = b.velocityAt(surface);
+      pl.n = b.sampleNormal(size_t(q), R);
+      const Vec3d surface = b.samplePosition(size_t(q), R) - double(b.phi[q]) * pl.n;
+      // A deforming collider's surface moves as its sample does.
+      pl.velocity = b.deform ? b.sampleVelocity(size_t(q), R) : b.velocityAt(surface);
       // A node already inside stays no deeper, rather than being thrown out
       // with the velocity of its whole penetration (which would add energy):
       // moveElastic moves it out, position only.
@@ -413,15 +414,17 @@ void Solver::pushOutOfSolids(double dt) {
       for (int64_t i = c * kChunk; i < end; ++i) {
         for (size_t bi = 0; bi < nb; ++bi) {
           const RigidBody& b = world_.bodies[bi];
-          if (b.deform) continue;  // its sample lattice is frame 0's
           const Vec3d x = set.x[i].cast<double>();
           double phi;
-          Vec3d n;
-          if (!b.distanceAt(x, rot[bi], phi, n) || phi >= 0.0) continue;
+          Vec3d n, vb;
+          if (!b.surfaceAt(x, rot[bi], phi, n, vb) || phi >= 0.0) continue;
           const Vec3d v = set.v[i].cast<double>();
-          const Vec3d v_rel = v - (b.state.v + omega[bi].cross(x - b.state.x));
+          const Vec3d v_rel = v - vb;
           Vec3d out = x - phi * n, normal = n;
-          if (v_rel.dot(n) > 0.0) {
+          // (Not through a deforming collider: its placed samples leave
+          // holes where its surface stretched, which this search would take
+          // for the far side.)
+          if (v_rel.dot(n) > 0.0 && !b.placed) {
             // Moving out through the nearest face: in a part thinner than a
             // few samples it came in through the opposite one (a plate one
             // cell thick). Send it back there, not through. The search
@@ -549,16 +552,15 @@ void Solver::constrainElastic(ElasticSolid& e, size_t first, double dt) {
   // (Implicit solids met them in their solve.)
   for (size_t k = 0; k < world_.bodies.size() && !e.implicit; ++k) {
     RigidBody& b = world_.bodies[k];
-    if (b.deform) continue;  // its sample lattice is frame 0's
     const Mat3d R = b.rotation();
     const double mu_pair = std::sqrt(double(e.friction) * double(b.friction));
     for (size_t i = 0; i < fem.nodes(); ++i) {
       const Vec3d x = fem.x[i] + dt * fem.v[i];
       double phi;
-      Vec3d n;
-      if (!b.distanceAt(x, R, phi, n) || phi >= 0.0) continue;
+      Vec3d n, vb;
+      if (!b.surfaceAt(x, R, phi, n, vb) || phi >= 0.0) continue;
       Vec3d dv = (-phi / dt) * n;
-      const Vec3d u = fem.v[i] + dv - b.velocityAt(x);
+      const Vec3d u = fem.v[i] + dv - vb;
       const Vec3d ut = u - u.dot(n) * n;
       const double slide = ut.norm();
       if (slide > 0.0) dv -= std::min(mu_pair * (-phi / dt), slide) / slide * ut;
@@ -585,7 +587,6 @@ void Solver::moveElastic(ElasticSolid& e, double dt) {
   // moving the node, not by giving it velocity.
   if (!e.implicit) return;
   for (const RigidBody& b : world_.bodies) {
-    if (b.deform) continue;
     const Mat3d R = b.rotation();
     for (size_t i = 0; i < fem.nodes(); ++i) {
       double phi;

@@ -208,4 +208,65 @@ double DeformingSurface::bindingError(const std::vector<Vec3f>& x) const {
   return tri_.empty() ? 0.0 : e / double(tri_.size());
 }
 
+void PlacedSamples::index(float h, const std::vector<float>& phi, float deepest) {
+  if (x.empty()) {
+    cells_.clear();
+    return;
+  }
+  Vec3f lo = x[0], hi = x[0];
+  for (const Vec3f& p : x) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  // The grid keeps its allocation while the samples stay inside it: its
+  // box is snapped to 8 cells with 4 to spare on each side, so a collider
+  // that moves or deforms a little refills it without clearing it whole.
+  const double snap = 8.0 * h;
+  bool fits = h == h_ && !cells_.empty();
+  for (int d = 0; d < 3 && fits; ++d)
+    fits = lo[d] >= origin_[d] + 0.5 * h && hi[d] <= origin_[d] + double(h) * (dims_[d] - 1.5);
+  if (!fits) {
+    h_ = h;
+    for (int d = 0; d < 3; ++d) {
+      origin_[d] = std::floor(lo[d] / snap) * snap - 4.0 * h;
+      dims_[d] = int(std::ceil((double(hi[d]) - origin_[d]) / snap) * 8.0) + 8;
+    }
+    cells_.assign(size_t(dims_.x()) * size_t(dims_.y()) * size_t(dims_.z()), -1);
+    filled_.clear();
+  }
+  for (uint32_t i : filled_) cells_[i] = -1;
+  filled_.clear();
+  // Each cell keeps its first sample: the same lookup for any order of work.
+  const float inv_h = 1.0f / h;
+  const Vec3f o = origin_.cast<float>();
+  for (size_t q = 0; q < x.size(); ++q) {
+    if (phi[q] <= deepest) continue;
+    const Vec3f c = ((x[q] - o) * inv_h).array().round();
+    const uint32_t i = uint32_t((size_t(c.x()) * size_t(dims_.y()) + size_t(c.y())) * size_t(dims_.z()) +
+                                size_t(c.z()));
+    if (cells_[i] >= 0) continue;
+    cells_[i] = int32_t(q);
+    filled_.push_back(i);
+  }
+}
+
+Eigen::Vector3i PlacedSamples::cellOf(const Vec3d& p) const {
+  const Vec3d c = (p - origin_) / double(h_);
+  return {int(std::lround(c.x())), int(std::lround(c.y())), int(std::lround(c.z()))};
+}
+
+int PlacedSamples::kept(const Eigen::Vector3i& c) const {
+  for (int d = 0; d < 3; ++d)
+    if (c[d] < 0 || c[d] >= dims_[d]) return -1;
+  return cells_[(size_t(c.x()) * size_t(dims_.y()) + size_t(c.y())) * size_t(dims_.z()) + size_t(c.z())];
+}
+
+int PlacedSamples::at(const Vec3d& p) const { return cells_.empty() ? -1 : kept(cellOf(p)); }
+
+float PlacedSamples::radiusAbout(const Vec3d& c) const {
+  double r = 0.0;
+  for (const Vec3f& p : x) r = std::max(r, (p.cast<double>() - c).squaredNorm());
+  return float(std::sqrt(r)) + h_;
+}
+
 }  // namespace triad

@@ -57,6 +57,46 @@ class DeformingSurface {
   std::vector<Vec3f> normal_;     // per sample: its normal, in the triangle's frame
 };
 
+// A deforming collider's samples as placed now (world): positions,
+// velocities, normals, and a lookup of them by the cell of a regular grid
+// of the sample spacing over their bounding box (each cell keeps its first
+// sample). What bodies, elastic solids and particles that
+// touch the collider query: its frame-0 lattice no longer matches it.
+struct PlacedSamples {
+  double time = -1.0;  // the time they were placed for
+  std::vector<Vec3f> x, v, n;
+
+  // Rebuilds the lookup from the samples of x whose distance phi is above
+  // `deepest` (contacts and the push-out need the surface layer only), in
+  // cells of size h.
+  void index(float h, const std::vector<float>& phi, float deepest);
+  // The sample kept in the cell that holds p, or -1 (none, or outside).
+  int at(const Vec3d& p) const;
+  // Calls f(q) for the sample kept in each of the 27 cells around p's.
+  template <class F>
+  void around(const Vec3d& p, F&& f) const {
+    if (cells_.empty()) return;
+    const Eigen::Vector3i c = cellOf(p);
+    for (int i = -1; i <= 1; ++i)
+      for (int j = -1; j <= 1; ++j)
+        for (int k = -1; k <= 1; ++k) {
+          const int q = kept(c + Eigen::Vector3i(i, j, k));
+          if (q >= 0) f(q);
+        }
+  }
+  // Largest distance of any sample from c, plus h: a bounding sphere.
+  float radiusAbout(const Vec3d& c) const;
+
+ private:
+  Eigen::Vector3i cellOf(const Vec3d& p) const;
+  int kept(const Eigen::Vector3i& c) const;
+  Vec3d origin_ = Vec3d::Zero();  // centre of cell (0, 0, 0)
+  float h_ = 1.0f;
+  Eigen::Vector3i dims_ = Eigen::Vector3i::Zero();
+  std::vector<int32_t> cells_;
+  std::vector<uint32_t> filled_;  // cells holding a sample, cleared at the next index()
+};
+
 // A mesh sequence as loaded: the shape of its frame 0 (one file, to
 // sample), and every frame's vertex positions (placed: scale, rotation,
 // translation) over one set of triangles.

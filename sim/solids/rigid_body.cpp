@@ -38,6 +38,23 @@ void RigidBody::poseAt(double t) {
     const Mat3d Pt = rest_principal.toRotationMatrix().transpose();
     surface.vertices.resize(x.size());
     for (size_t i = 0; i < x.size(); ++i) surface.vertices[i] = (Pt * (x[i] - pivot)).cast<float>();
+    // The samples ride on the sequence's surface, then the animation's pose.
+    if (!placed) placed = std::make_shared<PlacedSamples>();
+    if (placed->time != t || placed->x.size() != r.size()) {
+      const size_t n_samples = r.size();
+      placed->x.resize(n_samples);
+      placed->v.resize(n_samples);
+      placed->n.resize(n_samples);
+      const Mat3d A = (state.q_principal * rest_principal.conjugate()).toRotationMatrix();
+      deform->placeAll(t, A, pivot, state.x, state.v, omega(), placed->x, placed->v, placed->n, 0);
+      // Cells of two spacings, the samples within two spacings of the
+      // surface: a quarter of the work of all of them at one spacing, and
+      // the 27 cells around a point still hold samples within three
+      // spacings of it.
+      placed->index(2.0f * spacing, phi, -2.0f * spacing);
+      placed->time = t;
+      radius = placed->radiusAbout(state.x);
+    }
   }
 }
 
@@ -65,10 +82,50 @@ int RigidBody::sampleIn(const Eigen::Vector3i& i) const {
   return cells[(size_t(i.x()) * cell_dims.y() + i.y()) * cell_dims.z() + i.z()];
 }
 
-int RigidBody::sampleAt(const Vec3d& p) const { return sampleIn(latticeCell(p)); }
+int RigidBody::sampleAt(const Vec3d& p) const {
+  return placed ? placed->at(p) : sampleIn(latticeCell(p));
+}
+
+Vec3d RigidBody::samplePosition(size_t q, const Mat3d& R) const {
+  return placed ? placed->x[q].cast<double>() : Vec3d(state.x + R * r[q].cast<double>());
+}
+
+Vec3d RigidBody::sampleNormal(size_t q, const Mat3d& R) const {
+  return placed ? placed->n[q].cast<double>() : Vec3d(R * n[q].cast<double>());
+}
+
+Vec3d RigidBody::sampleVelocity(size_t q, const Mat3d& R) const {
+  return placed ? placed->v[q].cast<double>() : velocityAt(samplePosition(q, R));
+}
+
+bool RigidBody::surfaceAt(const Vec3d& p, const Mat3d& R, double& phi_out, Vec3d& n_out,
+                          Vec3d& v_out) const {
+  if (!placed) {
+    if (!distanceAt(p, R, phi_out, n_out)) return false;
+    v_out = velocityAt(p);
+    return true;
+  }
+  const int q = supportAt(p, R);
+  if (q < 0) return false;
+  n_out = placed->n[size_t(q)].cast<double>();
+  phi_out = double(phi[size_t(q)]) + n_out.dot(p - placed->x[size_t(q)].cast<double>());
+  v_out = placed->v[size_t(q)].cast<double>();
+  return true;
+}
 
 int RigidBody::supportAt(const Vec3d& p, const Mat3d& R) const {
   if ((p - state.x).squaredNorm() > double(radius) * radius) return -1;
+  if (placed) {
+    // The same envelope over the placed samples near p.
+    int best = -1;
+    double best_d = -std::numeric_limits<double>::infinity();
+    placed->around(p, [&](int q) {
+      const double d = double(phi[size_t(q)]) +
+                       placed->n[size_t(q)].cast<double>().dot(p - placed->x[size_t(q)].cast<double>());
+      if (d > best_d) best_d = d, best = q;
+    });
+    return best;
+  }
   const Vec3d body = R.transpose() * (p - state.x);  // the frame of r and n
   const Eigen::Vector3i mid = latticeCell(p);
   int best = -1;
@@ -87,6 +144,10 @@ int RigidBody::supportAt(const Vec3d& p, const Mat3d& R) const {
 
 bool RigidBody::distanceAt(const Vec3d& p, const Mat3d& R, double& phi_out, Vec3d& n_out) const {
   if ((p - state.x).squaredNorm() > double(radius) * radius) return false;
+  if (placed) {
+    Vec3d v;
+    return surfaceAt(p, R, phi_out, n_out, v);
+  }
   const int k = sampleAt(p);
   if (k < 0) return false;
   n_out = R * n[size_t(k)].cast<double>();

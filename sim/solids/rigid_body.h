@@ -48,6 +48,10 @@ struct RigidBody {
   // sequence's surface (kept samples, in the order of r), and `surface`
   // follows it. Always animated (its animation may be the identity).
   std::shared_ptr<const DeformingSurface> deform;
+  // Its samples as placed at the last pose (poseAt), world: what contacts
+  // and the push-out query in place of the frame-0 lattice, and what the
+  // coupling scatters.
+  std::shared_ptr<PlacedSamples> placed;
 
   // Mass properties.
   double mass = 0.0;
@@ -62,7 +66,7 @@ struct RigidBody {
   std::vector<float> phi;     // signed distance to the surface (negative inside)
   float sample_mass = 0.0f;   // kg per sample
   float spacing = 0.0f;       // sample lattice spacing h
-  float radius = 0.0f;        // largest |r| + h: bounding sphere about the centre
+  float radius = 0.0f;        // largest |r| + h: bounding sphere about the centre (now, if deforming)
 
   // Lookup of samples by lattice cell in the rest frame, for contacts
   // between bodies: cell (i,j,k) of the box [cell_lo, cell_lo + cell_dims)
@@ -105,6 +109,16 @@ struct RigidBody {
   // planes, which moves continuously with p where the nearest sample's
   // plane jumps from one sample to the next (a ball sampled 4 across).
   int supportAt(const Vec3d& p, const Mat3d& R) const;
+  // Sample q as it is now, world: position, outward normal, velocity. A
+  // deforming collider's are where its surface has carried them.
+  Vec3d samplePosition(size_t q, const Mat3d& R) const;
+  Vec3d sampleNormal(size_t q, const Mat3d& R) const;
+  Vec3d sampleVelocity(size_t q, const Mat3d& R) const;
+  // distanceAt's distance and normal from the envelope sample (supportAt),
+  // and the surface's velocity there: the body's motion at p, or a
+  // deforming collider's sample's own velocity.
+  bool surfaceAt(const Vec3d& p, const Mat3d& R, double& phi_out, Vec3d& n_out,
+                 Vec3d& v_out) const;
 
   // An animated body: pose, velocity and spin at time t; a deforming one's
   // surface too.

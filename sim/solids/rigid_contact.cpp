@@ -70,20 +70,28 @@ void pairContacts(const std::vector<RigidBody>& bodies, int ia, int ib,
   const Vec3f cb = (Ra.transpose() * (b.state.x - a.state.x)).cast<float>();
   const float rb2 = b.radius * b.radius;
   for (size_t q = 0; q < a.r.size(); ++q) {
-    if ((a.r[q] - cb).squaredNorm() > rb2 || !onSurface(a, q)) continue;
-    const Vec3d p = a.state.x + Ra * a.r[q].cast<double>();
+    // A deforming collider's samples are where its surface carried them.
+    if (!a.placed && (a.r[q] - cb).squaredNorm() > rb2) continue;
+    if (!onSurface(a, q)) continue;
+    const Vec3d p = a.samplePosition(q, Ra);
+    if (a.placed && (p - b.state.x).squaredNorm() > double(rb2)) continue;
     // b's distance field there; none outside b, or deep inside (no nearby
     // surface to push towards).
     double phi_b;
-    Vec3d nb;
-    if (!b.distanceAt(p, Rb, phi_b, nb)) continue;
+    Vec3d nb, vb;
+    if (!b.surfaceAt(p, Rb, phi_b, nb, vb)) continue;
     // A contact pushes a's surface out through b's: their normals face each
     // other. Inside b near one of its edges the distance field points out
     // through the side face, across a's surface (a slab's top samples under
     // a box's bottom edge would push the box sideways and spin it).
-    if ((Ra * a.n[q].cast<double>()).dot(nb) > -0.5) continue;
+    if (a.sampleNormal(q, Ra).dot(nb) > -0.5) continue;
     // a's surface lies -phi_a beyond its sample.
-    out.push_back({ia, ib, p, nb, phi_b + double(a.phi[q]), mu});
+    Contact c{ia, ib, p, nb, phi_b + double(a.phi[q]), mu};
+    c.own_a = bool(a.deform);
+    c.va = c.own_a ? a.sampleVelocity(q, Ra) : Vec3d::Zero();
+    c.own_b = bool(b.deform);
+    c.vb = vb;
+    out.push_back(c);
   }
 }
 
@@ -99,8 +107,6 @@ std::vector<Contact> findContacts(const std::vector<RigidBody>& bodies, const Co
       const RigidBody& a = bodies[i];
       const RigidBody& b = bodies[j];
       if (a.fixed && b.fixed) continue;
-      // A deforming collider's sample lattice is its frame 0's: no contact.
-      if (a.deform || b.deform) continue;
       const double reach = a.radius + b.radius +
                            (a.state.v - b.state.v).norm() * dt +
                            (a.omega().norm() * a.radius + b.omega().norm() * b.radius) * dt;
@@ -152,10 +158,14 @@ ContactStats resolveContacts(std::vector<RigidBody>& bodies, const ContactSettin
     touched[size_t(c.a)] = 1;
     if (c.b >= 0) touched[size_t(c.b)] = 1;
   }
+  // A deforming collider (fixed: no impulse changes it) moves at its
+  // surface's own velocity at the contact.
   auto relVel = [&](const Contact& c, const Row& r) {
     const SolverBody& A = body(c.a);
     const SolverBody& B = body(c.b);
-    return Vec3d(A.v + A.w.cross(r.ra) - B.v - B.w.cross(r.rb));
+    const Vec3d va = c.own_a ? c.va : Vec3d(A.v + A.w.cross(r.ra));
+    const Vec3d vb = c.own_b ? c.vb : Vec3d(B.v + B.w.cross(r.rb));
+    return Vec3d(va - vb);
   };
   auto apply = [&](const Contact& c, const Row& r, const Vec3d& j) {
     SolverBody& A = body(c.a);

@@ -36,6 +36,10 @@ struct Contact {
   Vec3d n = Vec3d::Zero();
   double gap = 0.0;
   double mu = 0.0;  // < 0: no sliding (sticky walls)
+  // A deforming collider's surface moves on its own: its velocity at p
+  // (the side's body motion otherwise).
+  bool own_a = false, own_b = false;
+  Vec3d va = Vec3d::Zero(), vb = Vec3d::Zero();
 };
 
 // Contacts the bodies would make over the next dt with their current
