@@ -311,7 +311,7 @@ void writeFrameBodies(const std::string& out_dir, const World& world, int frame,
 }
 
 void writeFrameCheckpoint(const std::string& out_dir, int frame, const std::string& scene_hash,
-                          const World& world, const Solver& solver, const StepRecord& record) {
+                          const World& world, const SolverState& solver, const StepRecord& record) {
   writeCheckpoint(checkpointPath(out_dir, frame), frame, scene_hash, world, solver, record);
   // Keep this one and the one before (the fallback if this one is damaged).
   for (const auto& [f, path] : listCheckpoints(checkpointDir(out_dir))) {

@@ -62,7 +62,7 @@ void writeFrameBodies(const std::string& out_dir, const World& world, int frame,
 
 // Writes the frame's checkpoint, then deletes all but it and the one before.
 void writeFrameCheckpoint(const std::string& out_dir, int frame, const std::string& scene_hash,
-                          const World& world, const Solver& solver, const StepRecord& record);
+                          const World& world, const SolverState& solver, const StepRecord& record);
 
 // Deletes temporaries (NAME.tmpPID) that a killed run left in the cache
 // folders. Call before this run writes anything.

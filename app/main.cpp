@@ -40,6 +40,9 @@ int main(int argc, char** argv) {
   run_cmd->add_flag("--no-probe", run.no_probe,
                     "Skip the short rate probe before the first frame (the estimate's wall time "
                     "at a fixed rate)");
+  run_cmd->add_flag("--no-overlap", run.no_overlap,
+                    "Write each frame before stepping the next (by default a frame is written on "
+                    "a thread of its own from a copy while the next one steps)");
   run_cmd->add_flag("--resume", run.resume,
                     "Continue from the last complete frame's checkpoint in the output directory");
 

@@ -8,9 +8,14 @@
 #include <filesystem>
 #include <iostream>
 #include <memory>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "app/frame_output.h"
 #include "app/interrupt.h"
+#include "app/output_thread.h"
 #include "app/rate_probe.h"
 #include "export/atomic_file.h"
 #include "export/run_record.h"
@@ -66,6 +71,8 @@ int runScene(const RunOptions& options) {
   std::string out_dir;
   // One cache for the run: a mesh used twice is loaded and voxelized once.
   auto mesh_cache = std::make_shared<MeshCache>();
+  bool copy_fits = true;     // room for a frame's copy (estimate)
+  double copy_bytes = 0.0;
   auto printMeshWarnings = [&]() {
     for (const MeshWarning& w : mesh_cache->warnings())
       std::fprintf(stderr, "triad: warning: %s: %s\n", w.file.c_str(), w.text.c_str());
@@ -77,6 +84,8 @@ int runScene(const RunOptions& options) {
     // cannot fit is refused, an extreme one said so at once.
     SceneEstimate estimate = estimateScene(scene);
     requireFits(scene, estimate);
+    copy_fits = overlapFits(estimate);
+    copy_bytes = estimate.output_copy_bytes;
     // This machine's rate for the scene, from a coarser copy stepped a
     // moment: the estimate's wall time, in run.json and said at once.
     RateProbe rate;
@@ -117,6 +126,18 @@ int runScene(const RunOptions& options) {
       return kExitRunFailed;
     }
   }
+
+  // Frames are written on a thread of their own while the next one steps,
+  // from a copy of the world, one frame in flight; without room for the
+  // copy (or with --no-overlap), each frame before the solver steps on.
+  const bool overlap = !options.no_overlap && copy_fits;
+  if (!options.no_overlap && !copy_fits && options.progress != ProgressMode::Quiet)
+    std::fprintf(stderr,
+                 "triad: note: no room for a frame's copy (about %.3g MiB): each frame is written "
+                 "before the next steps\n",
+                 copy_bytes / (1024.0 * 1024.0));
+  OutputThread output(overlap);
+  rec.output_overlap = overlap;
 
   rec.scene_name = scene.name;
   rec.scene_path = scene.source_path;
@@ -199,28 +220,49 @@ int runScene(const RunOptions& options) {
     return all;
   };
 
+  // What run.json says of the simulation, taken on the solver's thread at a
+  // frame's end: the writer records it while the next frame steps.
+  struct SimState {
+    PhaseTimes times;
+    StepRecord steps;
+    size_t particles = 0;
+    std::vector<std::pair<std::string, uint64_t>> emitted, removed;
+    double time = 0.0;
+    size_t particle_bytes = 0, grid_bytes = 0;
+  };
+  auto simState = [&]() {
+    SimState s;
+    s.times = solver.phaseTimes();
+    s.steps = runSteps();
+    s.particles = world.particleCount();
+    for (const Source& src : world.sources) s.emitted.emplace_back(src.name, src.emitted);
+    for (const Sink& sink : world.sinks) s.removed.emplace_back(sink.name, sink.removed);
+    s.time = world.time;
+    s.particle_bytes = world.particleBytes();
+    s.grid_bytes = solver.bytes();
+    return s;
+  };
+  // Seconds the solver waited for output (copying a frame, waiting for the
+  // frame before it to be written, or writing it where frames do not overlap).
   double output_seconds = 0.0;
-  auto record = [&](bool finished, const std::string& error) {
-    const PhaseTimes& t = solver.phaseTimes();
+  auto record = [&](const SimState& sim, bool finished, const std::string& error) {
+    const PhaseTimes& t = sim.times;
     rec.phase_seconds = {{"bin", t.bin},   {"stress", t.stress}, {"p2g", t.p2g},
                          {"grid", t.grid}, {"g2p", t.g2p},       {"solids", t.solids},
                          {"shot", t.shot},   {"solve", t.total()},
-                         {"output", output_seconds}};
-    const StepRecord steps = runSteps();
-    rec.particles = world.particleCount();
-    rec.emitted.clear();
-    rec.removed.clear();
-    for (const Source& s : world.sources) rec.emitted.emplace_back(s.name, s.emitted);
-    for (const Sink& s : world.sinks) rec.removed.emplace_back(s.name, s.removed);
-    rec.simulated_time = world.time;
-    rec.steps = steps.steps;
-    rec.dt_min = steps.dt_min;
-    rec.dt_max = steps.dt_max;
-    rec.particle_steps = steps.particle_steps;
+                         {"output", output_seconds}, {"writing", output.busySeconds()}};
+    rec.particles = sim.particles;
+    rec.emitted = sim.emitted;
+    rec.removed = sim.removed;
+    rec.simulated_time = sim.time;
+    rec.steps = sim.steps.steps;
+    rec.dt_min = sim.steps.dt_min;
+    rec.dt_max = sim.steps.dt_max;
+    rec.particle_steps = sim.steps.particle_steps;
     rec.wall_seconds = omp_get_wtime() - t_start;
     rec.peak_rss_bytes = peakResidentBytes();
-    rec.particle_bytes = world.particleBytes();
-    rec.grid_bytes = solver.bytes();
+    rec.particle_bytes = sim.particle_bytes;
+    rec.grid_bytes = sim.grid_bytes;
     rec.finished = finished;
     rec.error = error;
     rec.ended_utc = utcNow();
@@ -229,11 +271,12 @@ int runScene(const RunOptions& options) {
 
   // Everything a frame writes, in this order: the cache files, then the
   // checkpoint (its presence means the frame is complete), then run.json.
-  auto writeFrame = [&](int frame) {
-    const double t0 = omp_get_wtime();
+  // `w` is the world at the frame's end: a copy when frames overlap.
+  auto writeFrameFiles = [&](const World& w, int frame, const SimState& sim,
+                             const std::vector<BodyLoad>& loads, const SolverState& solver_state) {
     // Particles (PLY), volumes (VDB), rigid body meshes and states.
-    const auto surfaces = writeFrameCaches(scene, out_dir, world, frame);
-    writeFrameBodies(out_dir, world, frame, body_logs, solver.bodyLoads());
+    const auto surfaces = writeFrameCaches(scene, out_dir, w, frame);
+    writeFrameBodies(out_dir, w, frame, body_logs, loads);
     // The preview render (rigid bodies drawn as meshes; with render.style
     // "surface" the materials' surfaces instead of their particles).
     if (preview) {
@@ -246,14 +289,42 @@ int runScene(const RunOptions& options) {
             pm.color = e.color;
             meshes.push_back(std::move(pm));
           }
-      preview->writeFrame(world, frame, meshes, !surface_style);
+      preview->writeFrame(w, frame, meshes, !surface_style);
     }
     // The checkpoint, last: --resume trusts every file of a checkpointed frame.
     if (scene.output.checkpoints)
-      writeFrameCheckpoint(out_dir, frame, checkpoint_key, world, solver, runSteps());
+      writeFrameCheckpoint(out_dir, frame, checkpoint_key, w, solver_state, sim.steps);
     rec.frames_written = frame + 1;
+    record(sim, false, "");
+  };
+  auto writeFrame = [&](int frame) {
+    const double t0 = omp_get_wtime();
+    // The frame's state; the world itself is copied only when the solver
+    // steps on while it is written.
+    std::shared_ptr<const World> w =
+        overlap ? std::make_shared<const World>(world)
+                : std::shared_ptr<const World>(&world, [](const World*) {});
+    SimState sim = simState();
+    std::vector<BodyLoad> loads = solver.bodyLoads();
+    const SolverState solver_state = solver.state();
+    output.submit([&writeFrameFiles, w, frame, sim = std::move(sim), loads = std::move(loads),
+                   solver_state]() {
+      try {
+        writeFrameFiles(*w, frame, sim, loads, solver_state);
+      } catch (const std::exception& e) {
+        throw std::runtime_error("writing frame " + std::to_string(frame) + ": " + e.what());
+      }
+    });
     output_seconds += omp_get_wtime() - t0;
-    record(false, "");
+  };
+  // Waits for the frame in flight before the record is read or written
+  // here; a failure to write it was already reported where it surfaced.
+  auto drainOutput = [&]() {
+    try {
+      output.wait();
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "triad: error: %s\n", e.what());
+    }
   };
 
   const int frames = scene.frames.count;
@@ -280,9 +351,14 @@ int runScene(const RunOptions& options) {
       writeFrame(frame);
       progress.frameDone(frame, world.steps, world.time);
     }
+    const double t_wait = omp_get_wtime();
+    output.wait();
+    output_seconds += omp_get_wtime() - t_wait;
   } catch (const Interrupted& stop) {
-    // Every complete frame and its checkpoint stay; the frame in progress
-    // is dropped (no file of it was written).
+    // Every complete frame and its checkpoint stay (the one being written
+    // is finished first); the frame in progress is dropped (no file of it
+    // was written).
+    drainOutput();
     progress.finish();
     const std::string why = "interrupted by " + signalName(stop.sig) + " in frame " +
                             std::to_string(frame) + " at t = " + std::to_string(world.time) + " s";
@@ -302,12 +378,13 @@ int runScene(const RunOptions& options) {
     rec.interrupted_by = signalName(stop.sig);
     rec.interrupted_frame = frame;
     try {
-      record(false, why);
+      record(simState(), false, why);
     } catch (const std::exception& e2) {
       std::fprintf(stderr, "triad: error: %s\n", e2.what());
     }
     return interruptedExitStatus(stop.sig);
   } catch (const std::exception& e) {
+    drainOutput();
     progress.finish();
     const bool sim = dynamic_cast<const SimulationError*>(&e) != nullptr;
     const std::string msg = std::string(sim ? "simulation failed in frame " : "failed in frame ") +
@@ -316,7 +393,7 @@ int runScene(const RunOptions& options) {
     std::fprintf(stderr, "triad: frames 0..%d are complete in %s\n", rec.frames_written - 1,
                  out_dir.c_str());
     try {
-      record(false, msg);
+      record(simState(), false, msg);
     } catch (const std::exception& e2) {
       std::fprintf(stderr, "triad: error: %s\n", e2.what());
     }
@@ -325,7 +402,7 @@ int runScene(const RunOptions& options) {
   progress.finish();
   try {
     if (preview) output_seconds += preview->finish();  // the contact sheet
-    record(true, "");
+    record(simState(), true, "");
   } catch (const std::exception& e) {
     std::fprintf(stderr, "triad: error: %s\n", e.what());
     return kExitRunFailed;

@@ -14,6 +14,7 @@ struct RunOptions {
   bool resume = false;  // continue from the last complete frame's checkpoint
   std::string quality;  // --quality preset (import/quality.h); empty: the scene as written
   bool no_probe = false;  // no rate probe before the first frame (app/rate_probe.h)
+  bool no_overlap = false;  // write each frame before stepping on (app/output_thread.h)
 };
 
 // Exit statuses of the command line contract.

@@ -194,6 +194,11 @@ class Reader {
 
 void writeCheckpoint(const std::string& path, int frame, const std::string& scene_hash,
                      const World& world, const Solver& solver, const StepRecord& record) {
+  writeCheckpoint(path, frame, scene_hash, world, solver.state(), record);
+}
+
+void writeCheckpoint(const std::string& path, int frame, const std::string& scene_hash,
+                     const World& world, const SolverState& st, const StepRecord& record) {
   writeFileAtomically(path, [&](std::ostream& out) {
     Writer w(out);
     // Header: what and when.
@@ -211,7 +216,6 @@ void writeCheckpoint(const std::string& path, int frame, const std::string& scen
     // Payload: scene hash, solver state, step statistics, particle sets.
     w.pod(uint32_t(scene_hash.size()));
     w.bytes(scene_hash.data(), scene_hash.size());
-    const SolverState st = solver.state();
     w.pod(st.max_speed);
     w.pod(st.max_stiffness_scale);
     w.pod(record.steps);

@@ -70,6 +70,10 @@ constexpr uint32_t kCheckpointVersion = 4;
 // the file.
 void writeCheckpoint(const std::string& path, int frame, const std::string& scene_hash,
                      const World& world, const Solver& solver, const StepRecord& record);
+// The same from the solver's state as taken at the frame's end (a frame
+// written on another thread while the solver steps on).
+void writeCheckpoint(const std::string& path, int frame, const std::string& scene_hash,
+                     const World& world, const SolverState& solver, const StepRecord& record);
 
 // Reads and verifies (size, magic, version, checksum, array sizes) a
 // checkpoint. Throws CheckpointError saying what is wrong.

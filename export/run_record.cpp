@@ -26,6 +26,7 @@ void writeRunRecord(const std::string& path, const RunRecord& rec) {
   j["ended_utc"] = rec.ended_utc;
   j["threads"] = rec.threads;
   j["omp_wait_policy"] = rec.omp_wait_policy;
+  j["output_overlap"] = rec.output_overlap;
   j["quality"] = {{"preset", rec.quality.empty() ? nlohmann::ordered_json(nullptr)
                                                  : nlohmann::ordered_json(rec.quality)},
                   {"dx", rec.dx},

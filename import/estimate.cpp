@@ -187,6 +187,7 @@ SceneEstimate estimateScene(const SceneDesc& scene) {
           else oe.particles += emittedParticles(scene, o, oe.particles);
         }
         oe.bytes = oe.particles * per;
+        e.output_copy_bytes += oe.particles * (per - kParticleOverhead);
         e.particles += oe.particles;
         c = std::max(c, double(waveSpeed(m)));
       } else if (o.kind != ObjectKind::Sink) {
@@ -206,6 +207,7 @@ SceneEstimate estimateScene(const SceneDesc& scene) {
           }
         }
         oe.bytes = oe.particles * per;
+        e.output_copy_bytes += oe.bytes;
       }
     } catch (const InputError& err) {
       if (!err.where().empty()) throw;
@@ -252,9 +254,13 @@ void requireFits(const SceneDesc& scene, const SceneEstimate& e) {
           std::to_string(scene.solver.particles_per_cell) + ")");
 }
 
+bool overlapFits(const SceneEstimate& e) {
+  return e.memory_bytes + e.output_copy_bytes <= 0.9 * e.available_bytes;
+}
+
 std::string describeEstimate(const SceneEstimate& e) {
   std::string s;
-  char buf[256];
+  char buf[512];
   for (const ObjectEstimate& o : e.objects) {
     if (o.particles == 0) continue;
     std::snprintf(buf, sizeof buf, "  %-20s %12s particles or samples, %s\n", o.name.c_str(),
@@ -262,9 +268,11 @@ std::string describeEstimate(const SceneEstimate& e) {
     s += buf;
   }
   std::snprintf(buf, sizeof buf,
-                "  memory about %s (the process's own included) of %s available; first step %.3g s, %.3g substeps a frame; "
+                "  memory about %s (the process's own included), and %s more to write a frame while "
+                "the next steps, of %s available; first step %.3g s, %.3g substeps a frame; "
                 "disk about %s a frame\n",
-                bytesText(e.memory_bytes).c_str(), bytesText(e.available_bytes).c_str(), e.first_dt,
+                bytesText(e.memory_bytes).c_str(), bytesText(e.output_copy_bytes).c_str(),
+                bytesText(e.available_bytes).c_str(), e.first_dt,
                 e.substeps_per_frame, bytesText(e.disk_bytes_per_frame).c_str());
   s += buf;
   const RateProbe& p = e.probe;
@@ -289,6 +297,7 @@ std::string estimateJson(const SceneEstimate& e) {
   j["objects"] = objs;
   j["particles"] = e.particles;
   j["memory_bytes"] = e.memory_bytes;
+  j["output_copy_bytes"] = e.output_copy_bytes;
   j["baseline_bytes"] = e.baseline_bytes;
   j["available_bytes"] = e.available_bytes;
   j["first_dt"] = e.first_dt;
@@ -308,7 +317,7 @@ std::string estimateJson(const SceneEstimate& e) {
 
 std::vector<std::string> extremeWarnings(const SceneDesc& scene, const SceneEstimate& e) {
   std::vector<std::string> w;
-  char buf[256];
+  char buf[512];
   if (e.substeps_per_frame > 1e5) {
     std::snprintf(buf, sizeof buf,
                   "%s: about %.3g substeps a frame (first step %.3g s, from the stiffest "

@@ -35,6 +35,10 @@ struct SceneEstimate {
   std::vector<ObjectEstimate> objects;  // scene order
   double particles = 0;                 // MPM particles in all
   double memory_bytes = 0;              // peak resident: particles, grids, solids, the process itself
+  // One frame's copy of the particles and solids, which `triad run` holds
+  // while it writes that frame and steps the next (not in memory_bytes: a
+  // run without room for it writes each frame before stepping on).
+  double output_copy_bytes = 0;
   double baseline_bytes = 0;            // the process's own resident size (code, libraries)
   double first_dt = 0;                  // s, from the materials' wave speeds and solver.max_dt
   double substeps_per_frame = 0;
@@ -65,6 +69,10 @@ SceneEstimate estimateScene(const SceneDesc& scene);
 // bytes, and what to change) when the memory estimate exceeds what is
 // available.
 void requireFits(const SceneDesc& scene, const SceneEstimate& e);
+
+// Whether the run also has room for a frame's copy, to write it while the
+// next frame steps (within 90% of what is available).
+bool overlapFits(const SceneEstimate& e);
 
 // One line per object and a summary, for people; and as JSON, for tools.
 std::string describeEstimate(const SceneEstimate& e);

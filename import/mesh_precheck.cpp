@@ -181,7 +181,8 @@ void checkPly(const std::string& path) {
         if (at + uint64_t(p.count_bytes) > body.size()) bad(e, k, "the file ends before it does");
         uint64_t items = 0;
         for (int b = 0; b < p.count_bytes; ++b) {
-          const uint64_t byte = static_cast<unsigned char>(body[at + uint64_t(big ? b : p.count_bytes - 1 - b)]);
+          const uint64_t byte =
+              static_cast<unsigned char>(body[at + uint64_t(big ? b : p.count_bytes - 1 - b)]);
           items = (items << 8) | byte;
         }
         // Signed count types: a negative count reads as a huge one here.
@@ -231,7 +232,8 @@ void checkGltfIndices(const std::string& path) {
         const size_t size = type == 5121 ? 1 : type == 5123 ? 2 : type == 5125 ? 4 : 0;
         if (size == 0) continue;
         const size_t stride = view.value("byteStride", size);
-        const size_t start = view.value("byteOffset", size_t(0)) + idx.value("byteOffset", size_t(0));
+        const size_t start =
+            view.value("byteOffset", size_t(0)) + idx.value("byteOffset", size_t(0));
         const size_t count = idx.at("count").get<size_t>();
         for (size_t k = 0; k < count; ++k) {
           const size_t at = start + k * stride;
@@ -280,8 +282,10 @@ int64_t dataUriBytes(const std::string& uri) {
   if (head.size() >= 7 && head.compare(head.size() - 7, 7, ";base64") == 0) {
     int64_t chars = 0, pad = 0;
     for (char c : body) {
-      if (c == '=') ++pad;
-      else if (!std::isspace(static_cast<unsigned char>(c))) ++chars;
+      if (c == '=')
+        ++pad;
+      else if (!std::isspace(static_cast<unsigned char>(c)))
+        ++chars;
     }
     return (chars + pad) / 4 * 3 - std::min<int64_t>(pad, 2);
   }
@@ -325,13 +329,16 @@ void checkGltfLayout(const std::string& path) {
   }
   if (!doc.is_object()) fail("the top level is not a JSON object");
   // glTF 1.0 keeps its objects in dictionaries, 2.0 in arrays.
-  const json* version = doc.contains("asset") && doc["asset"].is_object() && doc["asset"].contains("version")
-                            ? &doc["asset"]["version"]
-                            : nullptr;
-  const bool version1 = version ? version->is_string() && version->get<std::string>().rfind("1", 0) == 0
-                                : doc.contains("accessors") && doc["accessors"].is_object();
+  const json* version =
+      doc.contains("asset") && doc["asset"].is_object() && doc["asset"].contains("version")
+          ? &doc["asset"]["version"]
+          : nullptr;
+  const bool version1 = version
+                            ? version->is_string() && version->get<std::string>().rfind("1", 0) == 0
+                            : doc.contains("accessors") && doc["accessors"].is_object();
   // A non-negative integer field, or its default when absent.
-  auto count = [&](const json& o, const char* key, const std::string& what, int64_t dflt) -> int64_t {
+  auto count = [&](const json& o, const char* key, const std::string& what,
+                   int64_t dflt) -> int64_t {
     const auto it = o.find(key);
     if (it == o.end()) {
       if (dflt < 0) fail(what + " has no \"" + key + "\"");
@@ -344,7 +351,8 @@ void checkGltfLayout(const std::string& path) {
   auto each = [&](const char* collection, auto&& f) {
     const auto it = doc.find(collection);
     if (it == doc.end()) return;
-    if (!it->is_array() && !it->is_object()) fail(std::string("\"") + collection + "\" is not a list");
+    if (!it->is_array() && !it->is_object())
+      fail(std::string("\"") + collection + "\" is not a list");
     size_t k = 0;
     for (auto e = it->begin(); e != it->end(); ++e, ++k) {
       const std::string name = std::string(collection).substr(0, std::strlen(collection) - 1) +
@@ -403,10 +411,17 @@ void checkGltfLayout(const std::string& path) {
     const auto t = o.find("componentType");
     const int64_t type = t != o.end() && t->is_number_integer() ? t->get<int64_t>() : 0;
     switch (type) {
-      case 5120: case 5121: return 1;
-      case 5122: case 5123: return 2;
-      case 5125: case 5126: return 4;
-      default: fail(who + ": \"componentType\" is not one of glTF's");
+      case 5120:
+      case 5121:
+        return 1;
+      case 5122:
+      case 5123:
+        return 2;
+      case 5125:
+      case 5126:
+        return 4;
+      default:
+        fail(who + ": \"componentType\" is not one of glTF's");
     }
     return 0;
   };
