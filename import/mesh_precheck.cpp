@@ -16,6 +16,7 @@
 #include <nlohmann/json.hpp>
 
 #include "sim/errors.h"
+#include "sim/ply_types.h"
 
 namespace triad {
 
@@ -27,16 +28,6 @@ namespace triad {
 // end_header, every element with at least one property, and no control
 // character but tabs.
 namespace {
-
-// Bytes of a PLY scalar type; 0 for a name PLY does not have.
-int plyTypeBytes(const std::string& t) {
-  if (t == "char" || t == "uchar" || t == "int8" || t == "uint8") return 1;
-  if (t == "short" || t == "ushort" || t == "int16" || t == "uint16") return 2;
-  if (t == "int" || t == "uint" || t == "int32" || t == "uint32" || t == "float" || t == "float32")
-    return 4;
-  if (t == "double" || t == "float64") return 8;
-  return 0;
-}
 
 struct PlyProperty {
   int count_bytes = 0;  // list: bytes of its count; 0 for a scalar

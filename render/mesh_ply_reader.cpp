@@ -7,20 +7,11 @@
 #include <vector>
 
 #include "sim/errors.h"
+#include "sim/ply_types.h"
 
 namespace triad::render {
 
 namespace {
-
-// Byte size of a PLY scalar type, 0 when unknown.
-int typeSize(const std::string& t) {
-  if (t == "char" || t == "uchar" || t == "int8" || t == "uint8") return 1;
-  if (t == "short" || t == "ushort" || t == "int16" || t == "uint16") return 2;
-  if (t == "int" || t == "uint" || t == "int32" || t == "uint32" || t == "float" || t == "float32")
-    return 4;
-  if (t == "double" || t == "float64") return 8;
-  return 0;
-}
 
 bool isFloat(const std::string& t) {
   return t == "float" || t == "float32" || t == "double" || t == "float64";
@@ -89,8 +80,8 @@ void readMeshPly(const std::string& path, PreviewMesh& mesh) {
       ls >> type;
       if (type == "list") {
         ls >> list_count_type >> list_index_type >> name;
-        if (element != "face" || has_list || name.empty() || typeSize(list_count_type) == 0 ||
-            isFloat(list_count_type) || typeSize(list_index_type) == 0 ||
+        if (element != "face" || has_list || name.empty() || plyTypeBytes(list_count_type) == 0 ||
+            isFloat(list_count_type) || plyTypeBytes(list_index_type) == 0 ||
             isFloat(list_index_type))
           throw bad("expected one integer list of vertex indices in the face element, got '" +
                     line + "'");
@@ -98,7 +89,7 @@ void readMeshPly(const std::string& path, PreviewMesh& mesh) {
         continue;
       }
       ls >> name;
-      if (typeSize(type) == 0 || name.empty()) throw bad("bad property line '" + line + "'");
+      if (plyTypeBytes(type) == 0 || name.empty()) throw bad("bad property line '" + line + "'");
       if (element == "vertex") vprops.push_back({name, type});
       else if (!has_list) fprops_before.push_back({name, type});
       else fprops_after.push_back({name, type});
@@ -117,7 +108,7 @@ void readMeshPly(const std::string& path, PreviewMesh& mesh) {
     if (p.name == "x" && f32) ox = stride;
     if (p.name == "y" && f32) oy = stride;
     if (p.name == "z" && f32) oz = stride;
-    stride += typeSize(p.type);
+    stride += plyTypeBytes(p.type);
   }
   if (ox < 0 || oy < 0 || oz < 0) throw bad("the vertex element needs float properties x, y and z");
 
@@ -138,11 +129,11 @@ void readMeshPly(const std::string& path, PreviewMesh& mesh) {
   }
   auto skip = [&](const std::vector<Scalar>& props) {
     for (const Scalar& s : props) {
-      need(size_t(typeSize(s.type)), "faces");
-      p += typeSize(s.type);
+      need(size_t(plyTypeBytes(s.type)), "faces");
+      p += plyTypeBytes(s.type);
     }
   };
-  const int count_size = typeSize(list_count_type), index_size = typeSize(list_index_type);
+  const int count_size = plyTypeBytes(list_count_type), index_size = plyTypeBytes(list_index_type);
   mesh.triangles.clear();
   mesh.triangles.reserve(size_t(faces) * 3);
   std::vector<uint32_t> poly;

@@ -6,20 +6,11 @@
 #include <vector>
 
 #include "sim/errors.h"
+#include "sim/ply_types.h"
 
 namespace triad::render {
 
 namespace {
-
-// Byte size of a PLY scalar type, 0 when unknown.
-int typeSize(const std::string& t) {
-  if (t == "char" || t == "uchar" || t == "int8" || t == "uint8") return 1;
-  if (t == "short" || t == "ushort" || t == "int16" || t == "uint16") return 2;
-  if (t == "int" || t == "uint" || t == "int32" || t == "uint32" || t == "float" || t == "float32")
-    return 4;
-  if (t == "double" || t == "float64") return 8;
-  return 0;
-}
 
 struct Property {
   std::string name, type;
@@ -87,7 +78,7 @@ void readParticlesPly(const std::string& path, PreviewFrame& frame, std::vector<
       ls >> type;
       if (type == "list") throw bad("list properties in the vertex element are not supported");
       ls >> name;
-      const int size = typeSize(type);
+      const int size = plyTypeBytes(type);
       if (size == 0 || name.empty()) throw bad("bad property line '" + line + "'");
       props.push_back({name, type, stride});
       stride += size;
@@ -108,9 +99,9 @@ void readParticlesPly(const std::string& path, PreviewFrame& frame, std::vector<
   for (const Property* p : {px, py, pz})
     if (!p || (p->type != "float" && p->type != "float32"))
       throw bad("the vertex element needs float properties x, y and z");
-  if (!pobj || typeSize(pobj->type) > 4 || pobj->type == "float" || pobj->type == "float32")
+  if (!pobj || plyTypeBytes(pobj->type) > 4 || pobj->type == "float" || pobj->type == "float32")
     throw bad("the vertex element needs an integer property 'object'");
-  if (ids && (!pid || typeSize(pid->type) != 4 || pid->type == "float" || pid->type == "float32"))
+  if (ids && (!pid || plyTypeBytes(pid->type) != 4 || pid->type == "float" || pid->type == "float32"))
     throw bad("the vertex element needs a 32-bit integer property 'id'");
 
   const std::streamoff data_start = in.tellg();
