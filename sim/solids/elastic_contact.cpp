@@ -4,7 +4,6 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
-#include <unordered_map>
 
 #include "sim/solids/fem.h"
 #include "sim/mpm/particles.h"
@@ -29,27 +28,67 @@ struct Box {
 // its own spacing: a point's candidate tetrahedra are those of its bin.
 class TetBins {
  public:
+  // The tetrahedra of the whole bounding box of y, per cell, in one array
+  // (counted, then filled: no allocation per bin; a cell lists its
+  // tetrahedra in index order).
   TetBins(const std::vector<Vec3d>& y, const TetMesh& mesh) : h_(mesh.spacing) {
-    for (size_t t = 0; t < mesh.tets.size(); ++t) {
+    Box all;
+    for (const Vec3d& p : y) all.add(p);
+    if (y.empty() || !all.lo.allFinite() || !all.hi.allFinite()) return;  // a blow-up: reported after
+    // A solid stretched across a large domain: coarser cells, at most 2^24.
+    for (;;) {
+      lo_ = cell(all.lo);
+      dims_ = cell(all.hi) - lo_ + Eigen::Vector3i::Ones();
+      if (dims_.cast<double>().prod() <= double(1 << 24)) break;
+      h_ *= 2.0;
+    }
+    const size_t ntets = mesh.tets.size();
+    std::vector<Eigen::Vector3i> tlo(ntets), thi(ntets);
+    start_.assign(size_t(dims_.prod()) + 1, 0);
+    for (size_t t = 0; t < ntets; ++t) {
       Box b;
       for (int k = 0; k < 4; ++k) b.add(y[size_t(mesh.tets[t][k])]);
-      const Eigen::Vector3i lo = cell(b.lo), hi = cell(b.hi);
-      for (int i = lo.x(); i <= hi.x(); ++i)
-        for (int j = lo.y(); j <= hi.y(); ++j)
-          for (int k = lo.z(); k <= hi.z(); ++k) bins_[packBlock({i, j, k})].push_back(int(t));
+      tlo[t] = cell(b.lo) - lo_;
+      thi[t] = cell(b.hi) - lo_;
+      forCells(tlo[t], thi[t], [&](size_t c) { ++start_[c + 1]; });
     }
+    for (size_t c = 1; c < start_.size(); ++c) start_[c] += start_[c - 1];
+    tets_.resize(start_.back());
+    std::vector<uint32_t> next(start_.begin(), start_.end() - 1);
+    for (size_t t = 0; t < ntets; ++t)
+      forCells(tlo[t], thi[t], [&](size_t c) { tets_[next[c]++] = int(t); });
   }
-  const std::vector<int>* at(const Vec3d& p) const {
-    const auto it = bins_.find(packBlock(cell(p)));
-    return it == bins_.end() ? nullptr : &it->second;
+  // The candidate tetrahedra of p's cell (none outside the box).
+  struct Range {
+    const int *b = nullptr, *e = nullptr;
+    const int* begin() const { return b; }
+    const int* end() const { return e; }
+    bool empty() const { return b == e; }
+  };
+  Range at(const Vec3d& p) const {
+    const Eigen::Vector3i c = cell(p) - lo_;
+    if ((c.array() < 0).any() || (c.array() >= dims_.array()).any()) return {};
+    const size_t i = index(c);
+    return {tets_.data() + start_[i], tets_.data() + start_[i + 1]};
   }
 
  private:
   Eigen::Vector3i cell(const Vec3d& p) const {
     return (p / h_).array().floor().cast<int>();
   }
+  size_t index(const Eigen::Vector3i& c) const {
+    return (size_t(c.x()) * size_t(dims_.y()) + size_t(c.y())) * size_t(dims_.z()) + size_t(c.z());
+  }
+  template <class F>
+  void forCells(const Eigen::Vector3i& a, const Eigen::Vector3i& b, F&& f) const {
+    for (int i = a.x(); i <= b.x(); ++i)
+      for (int j = a.y(); j <= b.y(); ++j)
+        for (int k = a.z(); k <= b.z(); ++k) f(index({i, j, k}));
+  }
   double h_;
-  std::unordered_map<uint64_t, std::vector<int>> bins_;
+  Eigen::Vector3i lo_ = Eigen::Vector3i::Zero(), dims_ = Eigen::Vector3i::Zero();
+  std::vector<uint32_t> start_;  // per cell: first entry; one more at the end
+  std::vector<int> tets_;
 };
 
 constexpr double kPushOut = 0.2;  // share of a penetration undone per step
@@ -194,9 +233,9 @@ bool findPenetration(const ElasticSolid& b, const EndOfStep& end, const Vec3d& x
                      const Vec3d& own, double dt, Penetration& out) {
   const FemBody& fb = b.fem;
   if (!end.box.contains(x)) return false;
-  const std::vector<int>* candidates = end.bins.at(x);
-  if (!candidates) return false;
-  for (int t : *candidates) {
+  const TetBins::Range candidates = end.bins.at(x);
+  if (candidates.empty()) return false;
+  for (int t : candidates) {
     const auto& n = fb.mesh.tets[size_t(t)];
     const std::array<double, 4> w = barycentric(end.y, n, x);
     if (*std::min_element(w.begin(), w.end()) < -1e-9) continue;
