@@ -213,6 +213,7 @@ int runScene(const RunOptions& options) {
     StepRecord all = before;
     all.steps += now.steps;
     all.particle_steps += now.particle_steps;
+    all.sleeping_steps += now.sleeping_steps;
     if (now.steps > 0) {
       all.dt_min = before.steps > 0 ? std::min(before.dt_min, now.dt_min) : now.dt_min;
       all.dt_max = std::max(before.dt_max, now.dt_max);
@@ -259,6 +260,7 @@ int runScene(const RunOptions& options) {
     rec.dt_min = sim.steps.dt_min;
     rec.dt_max = sim.steps.dt_max;
     rec.particle_steps = sim.steps.particle_steps;
+    rec.sleeping_steps = sim.steps.sleeping_steps;
     rec.wall_seconds = omp_get_wtime() - t_start;
     rec.peak_rss_bytes = peakResidentBytes();
     rec.particle_bytes = sim.particle_bytes;

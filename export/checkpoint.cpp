@@ -124,8 +124,9 @@ size_t arrayBytes(const std::vector<T>& a) {
   return a.size() * sizeof(T);
 }
 
-size_t payloadBytes(const std::string& scene_hash, const World& world) {
-  size_t n = 4 + scene_hash.size() + 8 + 32;
+size_t payloadBytes(const std::string& scene_hash, const World& world, const SolverState& st) {
+  size_t n = 4 + scene_hash.size() + 8 + 40;
+  n += 8 + arrayBytes(st.sleep.keys) + arrayBytes(st.sleep.counts) + arrayBytes(st.sleep.still);
   for (const ParticleSet& s : world.sets)
     n += sizeof(SetHeader) + arrayBytes(s.x) + arrayBytes(s.v) + arrayBytes(s.C) +
          arrayBytes(s.F) + arrayBytes(s.J) + arrayBytes(s.id) + arrayBytes(s.object);
@@ -206,7 +207,7 @@ void writeCheckpoint(const std::string& path, int frame, const std::string& scen
     std::memcpy(h.magic, kMagic, 8);
     h.version = kCheckpointVersion;
     h.header_bytes = kHeaderBytes;
-    h.payload_bytes = payloadBytes(scene_hash, world);
+    h.payload_bytes = payloadBytes(scene_hash, world, st);
     h.frame = frame;
     h.sets = uint32_t(world.sets.size());
     h.time = world.time;
@@ -222,6 +223,11 @@ void writeCheckpoint(const std::string& path, int frame, const std::string& scen
     w.pod(record.dt_min);
     w.pod(record.dt_max);
     w.pod(record.particle_steps);
+    w.pod(record.sleeping_steps);
+    w.pod(uint64_t(st.sleep.keys.size()));
+    w.array(st.sleep.keys);
+    w.array(st.sleep.counts);
+    w.array(st.sleep.still);
     for (const ParticleSet& s : world.sets) {
       const SetHeader sh{s.material, s.mass, s.volume, uint64_t(s.size()),
                          uint8_t(!s.F.empty()), uint8_t(!s.J.empty()), 0};
@@ -303,6 +309,12 @@ Checkpoint readCheckpoint(const std::string& path) {
   c.record.dt_min = r.pod<double>();
   c.record.dt_max = r.pod<double>();
   c.record.particle_steps = r.pod<uint64_t>();
+  c.record.sleeping_steps = r.pod<uint64_t>();
+  const uint64_t sleep_blocks = r.pod<uint64_t>();
+  if (sleep_blocks > h.payload_bytes / 20) throw CheckpointError("sleep block count too large");
+  r.array(c.solver.sleep.keys, size_t(sleep_blocks));
+  r.array(c.solver.sleep.counts, size_t(sleep_blocks));
+  r.array(c.solver.sleep.still, size_t(sleep_blocks));
   for (uint32_t k = 0; k < h.sets; ++k) {
     const SetHeader sh = r.pod<SetHeader>();
     ParticleSet s;

@@ -4,13 +4,16 @@
 // uninterrupted run would. Materials are not stored: they are rebuilt from
 // the scene, whose hash the checkpoint records.
 //
-// File (checkpoints/state.FFFF.bin), little-endian, version 4:
+// File (checkpoints/state.FFFF.bin), little-endian, version 5:
 //   header   char[8] "TRIADCKP", u32 format version, u32 header bytes (= 64),
 //            u64 payload bytes, i32 frame, u32 set count, f64 time,
 //            i64 steps, u8[16] reserved (zero)
 //   payload  scene hash   (u32 length, bytes: "fnv1a64:<hex>")
 //            solver state (f32 max_speed, f32 max_stiffness_scale)
-//            step record  (i64 steps, f64 dt_min, f64 dt_max, u64 particle steps)
+//            step record  (i64 steps, f64 dt_min, f64 dt_max, u64 particle steps,
+//                         u64 of them asleep)
+//            sleep state  (u64 block count k, then u64 keys[k], u32 particle
+//                         counts[k], f64 still seconds[k]; k = 0 without sleep)
 //            per set:     i32 material, f32 mass, f32 volume, u64 n,
 //                         u8 has_F, u8 has_J, u16 0, then the arrays in order
 //                         x v (3 f32 each), C F (9 f32, column-major),
@@ -63,7 +66,7 @@ struct Checkpoint {
   std::vector<uint64_t> shot_counts;  // emitted per source, then removed per sink
 };
 
-constexpr uint32_t kCheckpointVersion = 4;
+constexpr uint32_t kCheckpointVersion = 5;
 
 // Writes the world's particle sets, rigid body states and clock, the solver
 // state and the frame atomically to `path`. Throws std::runtime_error naming

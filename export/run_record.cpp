@@ -64,6 +64,7 @@ void writeRunRecord(const std::string& path, const RunRecord& rec) {
                    {"probe_seconds", rec.probe_seconds}};
   const double solve = rec.phase_seconds.count("solve") ? rec.phase_seconds.at("solve") : 0.0;
   j["particle_substeps"] = rec.particle_steps;
+  j["sleeping_particle_substeps"] = rec.sleeping_steps;
   j["particle_substeps_per_second"] = solve > 0.0 ? double(rec.particle_steps) / solve : 0.0;
   j["memory"] = {{"peak_rss_bytes", rec.peak_rss_bytes},
                  {"particle_bytes", rec.particle_bytes},

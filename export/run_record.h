@@ -32,6 +32,7 @@ struct RunRecord {
   int64_t steps = 0;
   double dt_min = 0.0, dt_max = 0.0;
   uint64_t particle_steps = 0;
+  uint64_t sleeping_steps = 0;  // particle-substeps skipped by sleeping material
   std::map<std::string, double> phase_seconds;  // solver phases, output, setup
   double wall_seconds = 0.0;
   // The estimate made before the first frame: solving wall time at the

@@ -185,6 +185,19 @@ SolverDesc parseSolver(const ParamDict& root) {
       s->getInt("coupling_iterations", out.coupling_iterations, Range::closed(1, 1000));
   out.contact_iterations =
       s->getInt("contact_iterations", out.contact_iterations, Range::closed(1, 1000));
+  // Settled material sleeps: true (the measured defaults), false, or the
+  // speed threshold and delay.
+  if (const nlohmann::json* sleep = s->find("sleep")) {
+    if (sleep->is_object()) {
+      const ParamDict d = *s->getDict("sleep");
+      out.sleep.enabled = true;
+      out.sleep.speed = d.getDouble("speed", out.sleep.speed, Range::positive());
+      out.sleep.delay = d.getDouble("delay", out.sleep.delay, Range::nonNegative());
+      d.checkUnknownKeys();
+    } else {
+      out.sleep.enabled = s->getBool("sleep", false);
+    }
+  }
   s->checkUnknownKeys({}, [&](const std::string& key) -> std::string {
     if (key == "contact_reach" || key == "contact_normal" || key == "rigid_collision" ||
         key == "contact_gap")

@@ -51,6 +51,15 @@ struct DomainDesc {
   BoundaryDesc boundary;
 };
 
+// Settled material sleeps (sim/mpm/sleep.h): a particle block whose
+// particles have all been slower than `speed` for `delay` seconds skips its
+// work until motion or a moving solid comes near.
+struct SleepDesc {
+  bool enabled = false;
+  double speed = 0.01;  // m/s
+  double delay = 0.2;   // s
+};
+
 struct SolverDesc {
   double cfl = 0.4;      // fraction of a cell travelled (by material or waves) per step
   double max_dt = 1e-3;  // upper bound on the step, seconds
@@ -72,6 +81,7 @@ struct SolverDesc {
   bool contact_gap = true;
   int coupling_iterations = 30;  // most Jacobi passes of the grid collision with rigid bodies
   int contact_iterations = 20;  // sequential-impulse passes for rigid contacts
+  SleepDesc sleep;
 };
 
 // Every model's parameters in one flat struct; the loader fills the fields

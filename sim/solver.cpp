@@ -55,6 +55,7 @@ Solver::Solver(World& world) : world_(world) {
   for (const ParticleSet& set : world.sets)
     for (const Vec3f& v : set.v) max_speed_ = std::max(max_speed_, v.norm());
   has_particles_ = world.particleCount() > 0;
+  if (scene.solver.sleep.enabled) sleep_ = std::make_unique<SleepTracker>(scene.solver.sleep);
   if (!world.bodies.empty() || !world.elastics.empty()) {
     coupling_ = std::make_unique<GridCoupling>(scene.solver);
     for (int d = 0; d < 3; ++d) {
@@ -120,6 +121,7 @@ void Solver::step(double dt) {
   if (solids) predictSolids(dt);  // solids' own step: v_q* of every collision particle
   if (has_particles_) {
     binParticles();
+    if (sleep_) classifySleep();    // settled blocks skip the rest
     computeStress(fdt);
     particlesToGrid();              // contract step 2
     if (solids) scatterSolids();    // steps 1, 3, 4
@@ -135,6 +137,7 @@ void Solver::step(double dt) {
   world_.steps++;
   record_.steps++;
   record_.particle_steps += world_.particleCount();
+  record_.sleeping_steps += has_particles_ ? sleeping_ : 0;
   record_.dt_min = record_.steps == 1 ? dt : std::min(record_.dt_min, dt);
   record_.dt_max = std::max(record_.dt_max, dt);
 }
@@ -182,10 +185,36 @@ void Solver::binParticles() {
   binner_.bin(world_.sets, params_.shifted_origin, params_.inv_dx, layout_);
 }
 
+void Solver::classifySleep() {
+  PhaseTimer timer(times_.bin);
+  // Moving solids keep the material within two blocks of their bounds awake:
+  // they move less than a cell a step, so it wakes before they reach it.
+  const double margin = 2.0 * kBlockSize * world_.scene.domain.dx;
+  std::vector<WakeBox> wake;
+  for (const RigidBody& b : world_.bodies) {
+    if (b.fixed && !b.animated && !b.deform) continue;
+    const Vec3d r = Vec3d::Constant(double(b.radius) + margin);
+    wake.push_back({b.state.x - r, b.state.x + r});
+  }
+  for (const ElasticSolid& e : world_.elastics) {
+    WakeBox w{Vec3d::Constant(std::numeric_limits<double>::max()),
+              Vec3d::Constant(std::numeric_limits<double>::lowest())};
+    for (const Vec3d& x : e.fem.x) {
+      w.lo = w.lo.cwiseMin(x);
+      w.hi = w.hi.cwiseMax(x);
+    }
+    w.lo.array() -= margin;
+    w.hi.array() += margin;
+    wake.push_back(w);
+  }
+  sleeping_ = sleep_->classify(layout_, wake, params_.shifted_origin, params_.inv_dx);
+  stillSleepingParticles(layout_, world_.sets);
+}
+
 void Solver::computeStress(float dt) {
   PhaseTimer timer(times_.stress);
   params_.dt = dt;
-  max_stiffness_scale_ = computeAffine(world_.sets, params_);
+  max_stiffness_scale_ = computeAffine(world_.sets, params_, &layout_);
 }
 
 void Solver::particlesToGrid() {
@@ -196,13 +225,16 @@ void Solver::particlesToGrid() {
 void Solver::updateGrid(float dt) {
   PhaseTimer timer(times_.grid);
   triad::updateGrid(layout_, grid_, flip_ ? &flip_grid_ : nullptr, gravity_, dt, walls_);
+  freezeSleepingNodes(layout_, grid_, flip_ ? &flip_grid_ : nullptr);
 }
 
 void Solver::gridToParticles(float dt) {
   PhaseTimer timer(times_.g2p);
   params_.dt = dt;
-  G2PStats st =
-      triad::gridToParticles(world_.sets, layout_, params_, grid_, flip_ ? &flip_grid_ : nullptr);
+  G2PStats st = triad::gridToParticles(world_.sets, layout_, params_, grid_,
+                                       flip_ ? &flip_grid_ : nullptr,
+                                       sleep_ ? &block_speed2_ : nullptr);
+  if (sleep_) sleep_->update(layout_, block_speed2_, params_.dt);
   if (world_.steps + 1 == fault_step_ && !world_.sets.empty() && world_.sets[0].size() > 0) {
     world_.sets[0].v[0].x() = std::numeric_limits<float>::quiet_NaN();
     st.finite = false;

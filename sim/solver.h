@@ -8,6 +8,7 @@
 #include "sim/coupling/coupling.h"
 #include "sim/mpm/grid_update.h"
 #include "sim/solids/rigid_contact.h"
+#include "sim/mpm/sleep.h"
 #include "sim/mpm/sparse_grid.h"
 #include "sim/mpm/transfer.h"
 #include "sim/world.h"
@@ -37,6 +38,7 @@ struct StepRecord {
   int64_t steps = 0;
   double dt_min = 0.0, dt_max = 0.0;
   uint64_t particle_steps = 0;  // particles times substeps
+  uint64_t sleeping_steps = 0;  // of those, particles asleep (solver.sleep)
 };
 
 // What the next step depends on beyond the World: checkpoints save it so
@@ -44,6 +46,7 @@ struct StepRecord {
 struct SolverState {
   float max_speed = 0.0f;            // CFL speed from the last G2P
   float max_stiffness_scale = 1.0f;  // snow hardening from the last stress pass
+  SleepState sleep;                  // how long each block has been still
 };
 
 class Solver {
@@ -66,10 +69,13 @@ class Solver {
   // (counted from the start of the world), to exercise the failure path.
   void injectFaultAtStep(int64_t step) { fault_step_ = step; }
 
-  SolverState state() const { return {max_speed_, max_stiffness_scale_}; }
+  SolverState state() const {
+    return {max_speed_, max_stiffness_scale_, sleep_ ? sleep_->state() : SleepState{}};
+  }
   void restore(const SolverState& s) {
     max_speed_ = s.max_speed;
     max_stiffness_scale_ = s.max_stiffness_scale;
+    if (sleep_) sleep_->restore(s.sleep);
   }
 
   const PhaseTimes& phaseTimes() const { return times_; }
@@ -87,6 +93,9 @@ class Solver {
 
  private:
   void binParticles();
+  // Settled material: which blocks sleep this step (and still their
+  // particles), from the blocks' still times and the moving solids.
+  void classifySleep();
   void computeStress(float dt);
   void particlesToGrid();
   void updateGrid(float dt);
@@ -121,6 +130,9 @@ class Solver {
   GridLayout layout_;
   std::vector<GridNode> grid_;
   std::vector<GridNode> flip_grid_;
+  std::unique_ptr<SleepTracker> sleep_;  // only when the scene lets material sleep
+  std::vector<float> block_speed2_;      // per particle block, from the gather
+  size_t sleeping_ = 0;                  // particles asleep this step
 
   // Solids: only built when the scene has any.
   std::unique_ptr<GridCoupling> coupling_;

@@ -110,10 +110,13 @@ std::vector<std::string> checkpointNames(const fs::path& out) {
   return names;
 }
 
-TEST(Resume, KilledRunResumesToTheSameBytes) {
-  const fs::path dir = test::tempDir("resume_killed");
-  const int frames = 10;
-  const std::string scene = test::writeScene(dir, resumeScene(frames));
+// Runs `j` uninterrupted and killed once frame 4 is on disk, then resumed:
+// every frame must come out byte for byte the same. `ref_record` receives
+// the uninterrupted run's run.json.
+void expectKilledRunResumes(const std::string& name, const json& j, int frames,
+                            json* ref_record = nullptr) {
+  const fs::path dir = test::tempDir(name);
+  const std::string scene = test::writeScene(dir, j);
 
   // The uninterrupted run.
   const Result ref = runTriad(scene, dir / "ref");
@@ -140,12 +143,31 @@ TEST(Resume, KilledRunResumesToTheSameBytes) {
   EXPECT_GE(rj["resumed"]["from_frame"].get<int>(), 3);
   EXPECT_LT(rj["resumed"]["from_frame"].get<int>(), frames);
   EXPECT_EQ(rj["steps"], runJson(dir / "ref")["steps"]);
+  EXPECT_EQ(rj["sleeping_particle_substeps"], runJson(dir / "ref")["sleeping_particle_substeps"]);
   EXPECT_FALSE(runJson(dir / "ref").contains("resumed"));
   // The latest two checkpoints, and no temporaries left by the kill.
   EXPECT_EQ(checkpointNames(out), checkpointNames(dir / "ref"));
   for (const char* sub : {"particles", "volumes"})
     for (const auto& e : fs::directory_iterator(out / sub))
       EXPECT_EQ(e.path().string().find(".tmp"), std::string::npos) << e.path();
+  if (ref_record) *ref_record = runJson(dir / "ref");
+}
+
+TEST(Resume, KilledRunResumesToTheSameBytes) {
+  const int frames = 10;
+  expectKilledRunResumes("resume_killed", resumeScene(frames), frames);
+}
+
+// Sleeping material: which blocks have been still, and for how long, is
+// part of the checkpoint, so a resumed run puts the same blocks to sleep.
+TEST(Resume, SleepingMaterialResumesToTheSameBytes) {
+  const int frames = 10;
+  json j = resumeScene(frames);
+  j["solver"]["sleep"] = {{"speed", 0.2}, {"delay", 0.02}};
+  json ref;
+  expectKilledRunResumes("resume_sleep", j, frames, &ref);
+  ASSERT_TRUE(ref.contains("sleeping_particle_substeps"));
+  EXPECT_GT(ref["sleeping_particle_substeps"].get<double>(), 0.0);
 }
 
 // Frames are written on their own thread while the next one steps, from a

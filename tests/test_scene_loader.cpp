@@ -264,6 +264,26 @@ TEST_F(SceneLoaderTest, FillsDefaultsForWhatIsLeftOut) {
   EXPECT_EQ(s.objects[0].velocity, (Vec3Desc{0, 0, 0}));
 }
 
+TEST_F(SceneLoaderTest, ReadsSleepAsAFlagOrItsSettings) {
+  json j = minimalScene();
+  EXPECT_FALSE(load(j).solver.sleep.enabled);
+  j["solver"] = {{"sleep", true}};
+  const SleepDesc defaults;
+  EXPECT_TRUE(load(j).solver.sleep.enabled);
+  EXPECT_EQ(load(j).solver.sleep.speed, defaults.speed);
+  j["solver"] = {{"sleep", {{"speed", 0.002}, {"delay", 0.5}}}};
+  const SleepDesc s = load(j).solver.sleep;
+  EXPECT_TRUE(s.enabled);
+  EXPECT_EQ(s.speed, 0.002);
+  EXPECT_EQ(s.delay, 0.5);
+  j["solver"] = {{"sleep", {{"speed", -1}}}};
+  EXPECT_TRUE(contains(parseError(j), {"virtual.json", "solver.sleep.speed"}));
+  j["solver"] = {{"sleep", {{"sped", 0.1}}}};
+  EXPECT_TRUE(contains(parseError(j), {"solver.sleep.sped", "speed"}));
+  j["solver"] = {{"sleep", "yes"}};
+  EXPECT_TRUE(contains(parseError(j), {"solver.sleep"}));
+}
+
 TEST_F(SceneLoaderTest, FillsModelDefaultsAndReadsExtensions) {
   json j = minimalScene();
   j["materials"]["snow"] = {

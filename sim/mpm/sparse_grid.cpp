@@ -94,6 +94,7 @@ void Binner::bin(std::vector<ParticleSet>& sets, const Vec3f& shifted_origin, fl
     for (const Run& r : runs) run_keys_.push_back(r.key);
   sortUnique(run_keys_);
   layout.particle_keys = run_keys_;
+  layout.asleep.clear();  // all awake until a sleep tracker says otherwise
   const size_t nblocks = layout.particle_keys.size();
 
   // Sort each set's particles by block with a stable counting sort over runs.

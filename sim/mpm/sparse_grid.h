@@ -55,6 +55,11 @@ struct GridLayout {
   // Per set: offsets into the set's (sorted) particle arrays; block b holds
   // particles [offsets[s][b], offsets[s][b+1]).
   std::vector<std::vector<uint32_t>> offsets;
+  // Per particle block, whether its material sleeps (sim/mpm/sleep.h); empty
+  // when the scene does not let material sleep.
+  std::vector<uint8_t> asleep;
+
+  bool sleeping(size_t pb) const { return !asleep.empty() && asleep[pb] != 0; }
 
   size_t gridBlocks() const { return grid_keys.size(); }
   size_t particleBlocks() const { return particle_keys.size(); }

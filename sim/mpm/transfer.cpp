@@ -125,6 +125,7 @@ void scatterAll(const std::vector<ParticleSet>& sets, const GridLayout& layout,
 #pragma omp for schedule(dynamic, 1)
       for (int64_t k = 0; k < static_cast<int64_t>(blocks.size()); ++k) {
         const size_t pb = blocks[k];
+        if (layout.sleeping(pb)) continue;
         std::memset(buf.d, 0, sizeof(buf.d));
         if constexpr (kFlip) std::memset(fbuf.d, 0, sizeof(fbuf.d));
         for (size_t s = 0; s < sets.size(); ++s)
@@ -150,7 +151,7 @@ void scatterAll(const std::vector<ParticleSet>& sets, const GridLayout& layout,
 template <class M, bool kFlip>
 G2PStats gatherSet(ParticleSet& set, size_t s, const GridLayout& layout,
                    const TransferParams& p, const std::vector<GridNode>& grid,
-                   const std::vector<GridNode>* flip) {
+                   const std::vector<GridNode>* flip, float* block_speed2) {
   const std::vector<uint32_t>& off = layout.offsets[s];
   const float dt = p.dt;
   const float c_scale = 4.0f * p.inv_dx;
@@ -163,7 +164,8 @@ G2PStats gatherSet(ParticleSet& set, size_t s, const GridLayout& layout,
     HaloBuffer<4> fbuf;
 #pragma omp for schedule(dynamic, 1)
     for (int64_t pb = 0; pb < static_cast<int64_t>(layout.particleBlocks()); ++pb) {
-      if (off[pb] == off[pb + 1]) continue;
+      if (off[pb] == off[pb + 1] || layout.sleeping(size_t(pb))) continue;
+      float block_max2 = 0.0f;
       forHalo(layout, pb, [&](int h, size_t node) {
         std::memcpy(buf.d[h], &grid[node], sizeof(GridNode));
         if constexpr (kFlip) std::memcpy(fbuf.d[h], &(*flip)[node], sizeof(GridNode));
@@ -193,9 +195,11 @@ G2PStats gatherSet(ParticleSet& set, size_t s, const GridLayout& layout,
           set.v[i] = v;
         }
         updateDeformation<M>(set, i, dt);
-        max_speed2 = std::max(max_speed2, set.v[i].squaredNorm());
-        if (!std::isfinite(max_speed2 + set.x[i].sum() + set.C[i].sum())) all_finite = 0;
+        block_max2 = std::max(block_max2, set.v[i].squaredNorm());
+        if (!std::isfinite(block_max2 + set.x[i].sum() + set.C[i].sum())) all_finite = 0;
       }
+      max_speed2 = std::max(max_speed2, block_max2);
+      if (block_speed2) block_speed2[pb] = std::max(block_speed2[pb], block_max2);
     }
   }
   // A NaN never wins a max reduction, so report non-finite separately.
@@ -204,20 +208,52 @@ G2PStats gatherSet(ParticleSet& set, size_t s, const GridLayout& layout,
 
 }  // namespace
 
-float computeAffine(std::vector<ParticleSet>& sets, const TransferParams& p) {
+namespace {
+
+// Chunks of at most kStressChunk particles covering the awake blocks' runs
+// of a set (start, count).
+void awakeChunks(const GridLayout& layout, size_t s, std::vector<std::pair<size_t, int>>& out) {
+  out.clear();
+  const std::vector<uint32_t>& off = layout.offsets[s];
+  size_t pb = 0;
+  const size_t nblocks = layout.particleBlocks();
+  while (pb < nblocks) {
+    if (layout.sleeping(pb)) {
+      ++pb;
+      continue;
+    }
+    size_t end = pb;
+    while (end < nblocks && !layout.sleeping(end)) ++end;
+    for (size_t b = off[pb]; b < off[end]; b += kStressChunk)
+      out.emplace_back(b, int(std::min<size_t>(kStressChunk, off[end] - b)));
+    pb = end;
+  }
+}
+
+}  // namespace
+
+float computeAffine(std::vector<ParticleSet>& sets, const TransferParams& p,
+                    const GridLayout* layout) {
   const bool apic = p.scheme == TransferScheme::Apic;
+  const bool some_asleep = layout && !layout->asleep.empty();
   float max_scale = 1.0f;
-  for (ParticleSet& set : sets) {
+  std::vector<std::pair<size_t, int>> awake;
+  for (size_t si = 0; si < sets.size(); ++si) {
+    ParticleSet& set = sets[si];
     const float stress_scale = p.dt * set.volume * 4.0f * p.inv_dx * p.inv_dx * p.dx;
     const float momentum_scale = apic ? set.mass * p.dx : 0.0f;
-    const int64_t chunks = (static_cast<int64_t>(set.size()) + kStressChunk - 1) / kStressChunk;
+    if (some_asleep) awakeChunks(*layout, si, awake);
+    const int64_t chunks = some_asleep
+                               ? static_cast<int64_t>(awake.size())
+                               : (static_cast<int64_t>(set.size()) + kStressChunk - 1) / kStressChunk;
     std::visit(
         [&](const auto& model) {
           using M = std::decay_t<decltype(model)>;
 #pragma omp parallel for schedule(static) reduction(max : max_scale)
           for (int64_t c = 0; c < chunks; ++c) {
-            const size_t b = size_t(c) * kStressChunk;
-            const int n = int(std::min<size_t>(kStressChunk, set.size() - b));
+            const size_t b = some_asleep ? awake[size_t(c)].first : size_t(c) * kStressChunk;
+            const int n = some_asleep ? awake[size_t(c)].second
+                                      : int(std::min<size_t>(kStressChunk, set.size() - b));
             Mat3f tau[kStressChunk];
             stressChunk(model, set, b, n, tau);
             for (int i = 0; i < n; ++i)
@@ -248,15 +284,17 @@ void particlesToGrid(const std::vector<ParticleSet>& sets, const GridLayout& lay
 
 G2PStats gridToParticles(std::vector<ParticleSet>& sets, const GridLayout& layout,
                          const TransferParams& p, const std::vector<GridNode>& grid,
-                         const std::vector<GridNode>* flip) {
+                         const std::vector<GridNode>* flip, std::vector<float>* block_speed2) {
   G2PStats total;
+  if (block_speed2) block_speed2->assign(layout.particleBlocks(), 0.0f);
+  float* bs = block_speed2 ? block_speed2->data() : nullptr;
   for (size_t s = 0; s < sets.size(); ++s) {
     ParticleSet& set = sets[s];
     const G2PStats st = std::visit(
         [&](const auto& model) {
           using M = std::decay_t<decltype(model)>;
-          return flip ? gatherSet<M, true>(set, s, layout, p, grid, flip)
-                      : gatherSet<M, false>(set, s, layout, p, grid, nullptr);
+          return flip ? gatherSet<M, true>(set, s, layout, p, grid, flip, bs)
+                      : gatherSet<M, false>(set, s, layout, p, grid, nullptr, bs);
         },
         set.model);
     total.max_speed = std::max(total.max_speed, st.max_speed);

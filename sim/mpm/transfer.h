@@ -34,7 +34,9 @@ struct G2PStats {
 // dt V0 (4/dx^2) tau, pre-multiplied by dx. Plastic models project F onto
 // their yield surface here. The material variant is visited once per set.
 // Returns the largest stiffness scale (snow hardening; 1 for the others).
-float computeAffine(std::vector<ParticleSet>& sets, const TransferParams& p);
+// With a layout whose blocks sleep, their particles are left as they are.
+float computeAffine(std::vector<ParticleSet>& sets, const TransferParams& p,
+                    const GridLayout* layout = nullptr);
 
 // Scatter mass and momentum into `grid` (sized layout.gridBlocks() * 64).
 // With FLIP, `flip` receives the momentum without the stress impulse.
@@ -43,10 +45,13 @@ void particlesToGrid(const std::vector<ParticleSet>& sets, const GridLayout& lay
                      std::vector<GridNode>* flip);
 
 // Gather velocities (and, with FLIP, velocity changes) back to particles,
-// advect them, and update each particle's F (or J for water).
+// advect them, and update each particle's F (or J for water). Sleeping
+// blocks are skipped (and so is their scatter). With `block_speed2`, each
+// awake particle block's largest squared particle speed is written there.
 G2PStats gridToParticles(std::vector<ParticleSet>& sets, const GridLayout& layout,
                          const TransferParams& p, const std::vector<GridNode>& grid,
-                         const std::vector<GridNode>* flip);
+                         const std::vector<GridNode>* flip,
+                         std::vector<float>* block_speed2 = nullptr);
 
 // Quadratic B-spline stencil of a particle: base node and per-axis weights.
 struct Stencil {

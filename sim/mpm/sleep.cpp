@@ -1,0 +1,143 @@
+#include "sim/mpm/sleep.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "sim/mpm/particles.h"
+
+namespace triad {
+
+namespace {
+
+// Index of key in sorted keys, or -1.
+int64_t indexOf(const std::vector<uint64_t>& keys, uint64_t key) {
+  const auto it = std::lower_bound(keys.begin(), keys.end(), key);
+  return it != keys.end() && *it == key ? int64_t(it - keys.begin()) : -1;
+}
+
+bool contains(const std::vector<uint64_t>& sorted, uint64_t key) {
+  return std::binary_search(sorted.begin(), sorted.end(), key);
+}
+
+// Block coordinate of world coordinate x along one axis (as the binner files
+// a particle at x).
+int blockCoord(double x, float origin, float inv_dx) {
+  const double node = std::floor((x - double(origin)) * double(inv_dx));
+  return blockOf(int(std::clamp(node, -1e9, 1e9)));
+}
+
+}  // namespace
+
+size_t SleepTracker::classify(GridLayout& layout, const std::vector<WakeBox>& wake,
+                              const Vec3f& origin, float inv_dx) {
+  const size_t nblocks = layout.particleBlocks();
+  const double delay = desc_.delay;
+
+  // Carry each block's still time over. A block whose particle count
+  // changed (material came in or left, a source filled it, a sink emptied
+  // it) starts again; so do new blocks.
+  counts_.assign(nblocks, 0);
+  for (const std::vector<uint32_t>& off : layout.offsets)
+    for (size_t b = 0; b < nblocks; ++b) counts_[b] += off[b + 1] - off[b];
+  still_.assign(nblocks, 0.0);
+  std::vector<uint64_t> gone;  // blocks that held particles and hold none now
+  size_t j = 0;
+  for (size_t b = 0; b < nblocks; ++b) {
+    const uint64_t key = layout.particle_keys[b];
+    while (j < state_.keys.size() && state_.keys[j] < key) gone.push_back(state_.keys[j++]);
+    if (j < state_.keys.size() && state_.keys[j] == key) {
+      if (state_.counts[j] == counts_[b]) still_[b] = state_.still[j];
+      ++j;
+    }
+  }
+  while (j < state_.keys.size()) gone.push_back(state_.keys[j++]);
+
+  // Blocks near a moving solid stay awake.
+  std::vector<uint8_t> woken(nblocks, 0);
+  for (const WakeBox& w : wake) {
+    Vec3i lo, hi;
+    for (int d = 0; d < 3; ++d) {
+      lo[d] = blockCoord(w.lo[d], origin[d], inv_dx);
+      hi[d] = blockCoord(w.hi[d], origin[d], inv_dx);
+    }
+    for (size_t b = 0; b < nblocks; ++b) {
+      const Vec3i c = unpackBlock(layout.particle_keys[b]);
+      if ((c.array() >= lo.array()).all() && (c.array() <= hi.array()).all()) woken[b] = 1;
+    }
+  }
+
+  // Asleep: still long enough, and so is every neighbour; none emptied.
+  layout.asleep.assign(nblocks, 0);
+  size_t sleeping = 0;
+  for (size_t b = 0; b < nblocks; ++b) {
+    if (woken[b] || still_[b] < delay) continue;
+    const Vec3i c = unpackBlock(layout.particle_keys[b]);
+    bool calm = true;
+    for (int dx = -1; dx <= 1 && calm; ++dx)
+      for (int dy = -1; dy <= 1 && calm; ++dy)
+        for (int dz = -1; dz <= 1 && calm; ++dz) {
+          if (dx == 0 && dy == 0 && dz == 0) continue;
+          const uint64_t key = packBlock(c + Vec3i(dx, dy, dz));
+          const int64_t n = indexOf(layout.particle_keys, key);
+          if (n >= 0 ? still_[size_t(n)] < delay : contains(gone, key)) calm = false;
+        }
+    if (!calm) continue;
+    layout.asleep[b] = 1;
+    sleeping += counts_[b];
+  }
+  return sleeping;
+}
+
+void SleepTracker::update(const GridLayout& layout, const std::vector<float>& speed2,
+                          double dt) {
+  const size_t nblocks = layout.particleBlocks();
+  const float limit2 = float(desc_.speed * desc_.speed);
+  for (size_t b = 0; b < nblocks; ++b) {
+    // A sleeping block is still by construction.
+    if (layout.sleeping(b) || speed2[b] < limit2)
+      still_[b] = std::min(still_[b] + dt, 1e30);
+    else
+      still_[b] = 0.0;
+  }
+  state_.keys = layout.particle_keys;
+  state_.counts = counts_;
+  state_.still = still_;
+}
+
+void freezeSleepingNodes(const GridLayout& layout, std::vector<GridNode>& grid,
+                         std::vector<GridNode>* flip) {
+  if (layout.asleep.empty()) return;
+  for (size_t pb = 0; pb < layout.particleBlocks(); ++pb) {
+    if (!layout.asleep[pb]) continue;
+    // The block's own nodes and the first two layers of its + neighbours:
+    // every node its particles' quadratic stencils reach.
+    const auto& nb = layout.neighbours[pb];
+    for (int x = 0; x < kHalo; ++x)
+      for (int y = 0; y < kHalo; ++y)
+        for (int z = 0; z < kHalo; ++z) {
+          const int d = ((x >> kBlockBits) << 2) | ((y >> kBlockBits) << 1) | (z >> kBlockBits);
+          const int k = ((x & (kBlockSize - 1)) * kBlockSize + (y & (kBlockSize - 1))) * kBlockSize +
+                        (z & (kBlockSize - 1));
+          const size_t node = size_t{nb[d]} * kBlockNodes + size_t(k);
+          grid[node].v[0] = grid[node].v[1] = grid[node].v[2] = 0.0f;
+          if (flip) (*flip)[node].v[0] = (*flip)[node].v[1] = (*flip)[node].v[2] = 0.0f;
+        }
+  }
+}
+
+void stillSleepingParticles(const GridLayout& layout, std::vector<ParticleSet>& sets) {
+  if (layout.asleep.empty()) return;
+  for (size_t s = 0; s < sets.size(); ++s) {
+    ParticleSet& set = sets[s];
+    const std::vector<uint32_t>& off = layout.offsets[s];
+    for (size_t pb = 0; pb < layout.particleBlocks(); ++pb) {
+      if (!layout.asleep[pb]) continue;
+      for (uint32_t i = off[pb]; i < off[pb + 1]; ++i) {
+        set.v[i].setZero();
+        set.C[i].setZero();
+      }
+    }
+  }
+}
+
+}  // namespace triad

@@ -1,0 +1,104 @@
+// Sleeping material (solver.sleep): settled blocks skip their work, stay
+// where they were, and wake when a moving solid comes near.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+#include "scene_fixture.h"
+#include "sim/solver.h"
+
+namespace triad {
+namespace {
+
+using nlohmann::json;
+using test::box;
+
+constexpr double kDx = 0.02;
+
+// A layer of sand at rest on the floor, and optionally a heavy ball thrown
+// up from above it that lands on it at about 0.85 s.
+json sandScene(const std::string& name, bool sleep, bool ball) {
+  json j = test::baseScene(name, {0.4, 1.4, 0.4}, kDx);
+  j["solver"] = {{"sleep", sleep ? json{{"speed", 0.01}, {"delay", 0.1}} : json(false)}};
+  j["materials"]["sand"] = {{"model", "drucker_prager"}, {"density", 1600},
+                            {"youngs_modulus", 1e5}, {"poisson_ratio", 0.3},
+                            {"friction_angle_deg", 35}};
+  j["objects"].push_back({{"name", "layer"}, {"kind", "mpm"}, {"material", "sand"},
+                          {"shape", box({0.02, 0.0, 0.02}, {0.38, 0.1, 0.38})}});
+  if (ball)
+    j["objects"].push_back({{"name", "ball"}, {"kind", "rigid"}, {"density", 3000},
+                            {"friction", 0.5}, {"velocity", {0, 4.0, 0}},
+                            {"shape", {{"sphere", {{"center", {0.2, 0.3, 0.2}}, {"radius", 0.05}}}}}});
+  return j;
+}
+
+// Particle positions by id.
+std::map<uint32_t, Vec3f> positions(const World& w) {
+  std::map<uint32_t, Vec3f> out;
+  for (const ParticleSet& s : w.sets)
+    for (size_t i = 0; i < s.size(); ++i) out[s.id[i]] = s.x[i];
+  return out;
+}
+
+double largestDifference(const World& a, const World& b) {
+  const auto pa = positions(a), pb = positions(b);
+  EXPECT_EQ(pa.size(), pb.size());
+  double d = 0.0;
+  for (const auto& [id, x] : pa) d = std::max(d, double((x - pb.at(id)).norm()));
+  return d;
+}
+
+// Sand at rest falls asleep after the delay and is then left as it was: the
+// run with sleep skips most of the work and ends within 0.1 dx of the run
+// without.
+TEST(Sleep, SettledSandSleepsWhereItRests) {
+  World awake = test::loadWorld(test::tempDir("sleep_off"), sandScene("sleep_off", false, false));
+  World sleepy = test::loadWorld(test::tempDir("sleep_on"), sandScene("sleep_on", true, false));
+  Solver a(awake), s(sleepy);
+  // The layer rings under its own weight for about 0.4 s, then settles.
+  a.advanceTo(0.9);
+  s.advanceTo(0.5);
+  const StepRecord settled = s.record();
+  s.advanceTo(0.9);
+  EXPECT_EQ(a.record().sleeping_steps, 0u);
+  const double share = double(s.record().sleeping_steps - settled.sleeping_steps) /
+                       double(s.record().particle_steps - settled.particle_steps);
+  const double diff = largestDifference(awake, sleepy);
+  std::printf("asleep %.1f%% of particle-substeps, largest difference %.2e m (%.3f dx)\n",
+              100 * share, diff, diff / kDx);
+  EXPECT_GT(share, 0.8);
+  EXPECT_LT(diff, 0.1 * kDx);
+  // Sleeping particles are still.
+  for (const ParticleSet& set : sleepy.sets)
+    for (const Vec3f& v : set.v) ASSERT_LT(v.norm(), 0.01f);
+}
+
+// A ball thrown up lands on the sleeping layer: the sand around it wakes in
+// time to hold it, and it comes to rest where it does without sleep. (Were
+// the sand not woken, its held nodes would stop the ball like a rigid floor:
+// it rests 0.35 dx higher, with no crater.)
+TEST(Sleep, ALandingBallWakesTheSandItMeets) {
+  World awake = test::loadWorld(test::tempDir("sleep_ball_off"), sandScene("sleep_ball_off", false, true));
+  World sleepy = test::loadWorld(test::tempDir("sleep_ball_on"), sandScene("sleep_ball_on", true, true));
+  Solver a(awake), s(sleepy);
+  s.advanceTo(0.6);
+  const StepRecord settled = s.record();
+  s.advanceTo(0.75);
+  const double share = double(s.record().sleeping_steps - settled.sleeping_steps) /
+                       double(s.record().particle_steps - settled.particle_steps);
+  EXPECT_GT(share, 0.5) << "the layer was not asleep when the ball came";
+  EXPECT_GT(sleepy.bodies[0].state.x.y(), 0.4) << "the ball came too early to test anything";
+  a.advanceTo(1.4);
+  s.advanceTo(1.4);
+  const double ya = awake.bodies[0].state.x.y(), ys = sleepy.bodies[0].state.x.y();
+  std::printf("ball at rest at y = %.4f m (awake) and %.4f m (sleep); %.1f%% asleep\n", ya, ys,
+              100.0 * double(s.record().sleeping_steps) / double(s.record().particle_steps));
+  EXPECT_GT(ys, 0.05 + 2 * kDx) << "the ball sank through the sand";
+  EXPECT_NEAR(ys, ya, 0.25 * kDx);
+  EXPECT_LT(sleepy.bodies[0].state.v.norm(), 0.05);
+}
+
+}  // namespace
+}  // namespace triad
