@@ -127,6 +127,7 @@ size_t arrayBytes(const std::vector<T>& a) {
 size_t payloadBytes(const std::string& scene_hash, const World& world, const SolverState& st) {
   size_t n = 4 + scene_hash.size() + 8 + 40;
   n += 8 + arrayBytes(st.sleep.keys) + arrayBytes(st.sleep.counts) + arrayBytes(st.sleep.still);
+  n += 8 + arrayBytes(st.sleep.body_still);
   for (const ParticleSet& s : world.sets)
     n += sizeof(SetHeader) + arrayBytes(s.x) + arrayBytes(s.v) + arrayBytes(s.C) +
          arrayBytes(s.F) + arrayBytes(s.J) + arrayBytes(s.id) + arrayBytes(s.object);
@@ -228,6 +229,8 @@ void writeCheckpoint(const std::string& path, int frame, const std::string& scen
     w.array(st.sleep.keys);
     w.array(st.sleep.counts);
     w.array(st.sleep.still);
+    w.pod(uint64_t(st.sleep.body_still.size()));
+    w.array(st.sleep.body_still);
     for (const ParticleSet& s : world.sets) {
       const SetHeader sh{s.material, s.mass, s.volume, uint64_t(s.size()),
                          uint8_t(!s.F.empty()), uint8_t(!s.J.empty()), 0};
@@ -315,6 +318,9 @@ Checkpoint readCheckpoint(const std::string& path) {
   r.array(c.solver.sleep.keys, size_t(sleep_blocks));
   r.array(c.solver.sleep.counts, size_t(sleep_blocks));
   r.array(c.solver.sleep.still, size_t(sleep_blocks));
+  const uint64_t sleep_bodies = r.pod<uint64_t>();
+  if (sleep_bodies > h.payload_bytes / 8) throw CheckpointError("sleep body count too large");
+  r.array(c.solver.sleep.body_still, size_t(sleep_bodies));
   for (uint32_t k = 0; k < h.sets; ++k) {
     const SetHeader sh = r.pod<SetHeader>();
     ParticleSet s;

@@ -13,7 +13,8 @@
 //            step record  (i64 steps, f64 dt_min, f64 dt_max, u64 particle steps,
 //                         u64 of them asleep)
 //            sleep state  (u64 block count k, then u64 keys[k], u32 particle
-//                         counts[k], f64 still seconds[k]; k = 0 without sleep)
+//                         counts[k], f64 still seconds[k]; k = 0 without sleep;
+//                         u64 rigid body count r, f64 still seconds[r])
 //            per set:     i32 material, f32 mass, f32 volume, u64 n,
 //                         u8 has_F, u8 has_J, u16 0, then the arrays in order
 //                         x v (3 f32 each), C F (9 f32, column-major),

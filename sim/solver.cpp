@@ -118,6 +118,7 @@ void Solver::step(double dt) {
   const bool solids = coupling_ != nullptr;
   if (!world_.sources.empty()) emitSources();  // refill the sources' shapes
   has_particles_ = world_.particleCount() > 0;
+  if (sleep_ && solids) sleepBodies();  // bodies resting in calm material
   if (solids) predictSolids(dt);  // solids' own step: v_q* of every collision particle
   if (has_particles_) {
     binParticles();
@@ -132,6 +133,7 @@ void Solver::step(double dt) {
     if (!world_.sinks.empty()) drainSinks(dt);  // remove what the sinks hold
   }
   if (solids) advanceSolids(dt);    // step 8, then contacts and rigid motion
+  if (sleep_ && solids) updateBodyStillness(dt);
   for (BodyLoad& l : loads_) l.time += dt;
 
   world_.steps++;
@@ -185,28 +187,75 @@ void Solver::binParticles() {
   binner_.bin(world_.sets, params_.shifted_origin, params_.inv_dx, layout_);
 }
 
+WakeBox Solver::wakeBox(const RigidBody& b) const {
+  // Bodies move less than a cell a step: two blocks of margin wake the
+  // material before they reach it.
+  const double margin = 2.0 * kBlockSize * world_.scene.domain.dx;
+  const Vec3d r = Vec3d::Constant(double(b.radius) + margin);
+  return {b.state.x - r, b.state.x + r};
+}
+
+void Solver::sleepBodies() {
+  std::vector<double>& still = sleep_->bodyStill();
+  still.resize(world_.bodies.size(), 0.0);
+  body_asleep_.assign(world_.bodies.size(), 0);
+  auto overlaps = [](const WakeBox& a, const WakeBox& b) {
+    return (a.lo.array() <= b.hi.array()).all() && (b.lo.array() <= a.hi.array()).all();
+  };
+  std::vector<WakeBox> others;  // moving things that may be about to touch a body
+  for (const RigidBody& b : world_.bodies)
+    if (b.animated || b.deform) others.push_back(wakeBox(b));
+  for (const ElasticSolid& e : world_.elastics) others.push_back(elasticBox(e));
+  for (size_t k = 0; k < world_.bodies.size(); ++k) {
+    const RigidBody& b = world_.bodies[k];
+    if (b.fixed || still[k] < sleep_->delay()) continue;
+    const WakeBox box = wakeBox(b);
+    if (!sleep_->calmWithin(box, params_.shifted_origin, params_.inv_dx)) continue;
+    bool alone = true;
+    for (const WakeBox& o : others) alone = alone && !overlaps(box, o);
+    for (size_t j = 0; j < world_.bodies.size() && alone; ++j) {
+      const RigidBody& o = world_.bodies[j];
+      if (j != k && !o.fixed && still[j] < sleep_->delay()) alone = !overlaps(box, wakeBox(o));
+    }
+    body_asleep_[k] = alone;
+  }
+}
+
+void Solver::updateBodyStillness(double dt) {
+  std::vector<double>& still = sleep_->bodyStill();
+  const double limit = sleep_->speed();
+  for (size_t k = 0; k < world_.bodies.size(); ++k) {
+    const RigidBody& b = world_.bodies[k];
+    const double speed = b.state.v.norm() + b.omega().norm() * double(b.radius);
+    still[k] = speed < limit ? std::min(still[k] + dt, 1e30) : 0.0;
+  }
+}
+
+WakeBox Solver::elasticBox(const ElasticSolid& e) const {
+  const double margin = 2.0 * kBlockSize * world_.scene.domain.dx;
+  WakeBox w{Vec3d::Constant(std::numeric_limits<double>::max()),
+            Vec3d::Constant(std::numeric_limits<double>::lowest())};
+  for (const Vec3d& x : e.fem.x) {
+    w.lo = w.lo.cwiseMin(x);
+    w.hi = w.hi.cwiseMax(x);
+  }
+  w.lo.array() -= margin;
+  w.hi.array() += margin;
+  return w;
+}
+
 void Solver::classifySleep() {
   PhaseTimer timer(times_.bin);
-  // Moving solids keep the material within two blocks of their bounds awake:
-  // they move less than a cell a step, so it wakes before they reach it.
-  const double margin = 2.0 * kBlockSize * world_.scene.domain.dx;
+  // Moving solids keep the material near them awake; a sleeping body
+  // sleeps with it.
   std::vector<WakeBox> wake;
-  for (const RigidBody& b : world_.bodies) {
+  for (size_t k = 0; k < world_.bodies.size(); ++k) {
+    const RigidBody& b = world_.bodies[k];
     if (b.fixed && !b.animated && !b.deform) continue;
-    const Vec3d r = Vec3d::Constant(double(b.radius) + margin);
-    wake.push_back({b.state.x - r, b.state.x + r});
+    if (k < body_asleep_.size() && body_asleep_[k]) continue;
+    wake.push_back(wakeBox(b));
   }
-  for (const ElasticSolid& e : world_.elastics) {
-    WakeBox w{Vec3d::Constant(std::numeric_limits<double>::max()),
-              Vec3d::Constant(std::numeric_limits<double>::lowest())};
-    for (const Vec3d& x : e.fem.x) {
-      w.lo = w.lo.cwiseMin(x);
-      w.hi = w.hi.cwiseMax(x);
-    }
-    w.lo.array() -= margin;
-    w.hi.array() += margin;
-    wake.push_back(w);
-  }
+  for (const ElasticSolid& e : world_.elastics) wake.push_back(elasticBox(e));
   sleeping_ = sleep_->classify(layout_, wake, params_.shifted_origin, params_.inv_dx);
   stillSleepingParticles(layout_, world_.sets);
 }
@@ -254,8 +303,14 @@ void Solver::predictSolids(double dt) {
     points_.phi.shrink_to_fit();
   }
   const Vec3d g(world_.scene.gravity[0], world_.scene.gravity[1], world_.scene.gravity[2]);
-  for (RigidBody& b : world_.bodies) {
-    if (!b.fixed) b.state.v += dt * g;
+  for (size_t k = 0; k < world_.bodies.size(); ++k) {
+    RigidBody& b = world_.bodies[k];
+    if (k < body_asleep_.size() && body_asleep_[k]) {
+      b.state.v.setZero();  // held by the sleeping material around it
+      b.state.L.setZero();
+    } else if (!b.fixed) {
+      b.state.v += dt * g;
+    }
     // Fixed bodies that do not move are scattered once and for all
     // (GridCoupling::buildFixed); animated colliders every step, at their
     // pose now and with its exact velocity.
@@ -511,6 +566,12 @@ void Solver::advanceSolids(double dt) {
   for (size_t s = 0; s < world_.bodies.size(); ++s) {
     RigidBody& b = world_.bodies[s];
     if (b.fixed) continue;
+    if (s < body_asleep_.size() && body_asleep_[s]) {
+      // Held by the sleeping material: it bears the body's weight.
+      const Vec3d g(world_.scene.gravity[0], world_.scene.gravity[1], world_.scene.gravity[2]);
+      loads_[s].impulse += -b.mass * dt * g;
+      continue;
+    }
     const size_t first = points_.begin[s];
     const size_t last = s + 1 < points_.begin.size() ? points_.begin[s + 1] : points_.size();
     Vec3d dp = Vec3d::Zero(), dl = Vec3d::Zero();
@@ -533,6 +594,12 @@ void Solver::advanceSolids(double dt) {
     loads_[s].moment += dl;
   }
   contact_stats_ = resolveContacts(world_.bodies, contact_, dt);
+  // A sleeping body stays where it rests.
+  for (size_t s = 0; s < body_asleep_.size(); ++s) {
+    if (!body_asleep_[s]) continue;
+    world_.bodies[s].state.v.setZero();
+    world_.bodies[s].state.L.setZero();
+  }
   for (RigidBody& b : world_.bodies) {
     if (b.animated) b.poseAt(world_.time + dt);
     b.advance(dt);

@@ -96,6 +96,12 @@ class Solver {
   // Settled material: which blocks sleep this step (and still their
   // particles), from the blocks' still times and the moving solids.
   void classifySleep();
+  // Rigid bodies at rest among calm material sleep with it: held still,
+  // they neither fall nor keep the material around them awake.
+  void sleepBodies();
+  void updateBodyStillness(double dt);
+  WakeBox wakeBox(const RigidBody& b) const;
+  WakeBox elasticBox(const ElasticSolid& e) const;
   void computeStress(float dt);
   void particlesToGrid();
   void updateGrid(float dt);
@@ -133,6 +139,7 @@ class Solver {
   std::unique_ptr<SleepTracker> sleep_;  // only when the scene lets material sleep
   std::vector<float> block_speed2_;      // per particle block, from the gather
   size_t sleeping_ = 0;                  // particles asleep this step
+  std::vector<uint8_t> body_asleep_;     // per rigid body, this step
 
   // Solids: only built when the scene has any.
   std::unique_ptr<GridCoupling> coupling_;

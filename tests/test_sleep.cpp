@@ -100,5 +100,38 @@ TEST(Sleep, ALandingBallWakesTheSandItMeets) {
   EXPECT_LT(sleepy.bodies[0].state.v.norm(), 0.05);
 }
 
+// A ball resting on the layer sleeps with it once both are still: the
+// sand under it sleeps too (a body that moves would keep it awake), the
+// ball stays where it rests without sleep, and its force row still
+// balances its weight.
+TEST(Sleep, ABallRestingOnSandSleepsWithIt) {
+  auto scene = [](const std::string& name, bool sleep) {
+    json j = sandScene(name, sleep, false);
+    j["objects"].push_back({{"name", "ball"}, {"kind", "rigid"}, {"density", 1500},
+                            {"friction", 0.5},
+                            {"shape", {{"sphere", {{"center", {0.2, 0.15, 0.2}}, {"radius", 0.05}}}}}});
+    return j;
+  };
+  World awake = test::loadWorld(test::tempDir("sleep_rest_off"), scene("sleep_rest_off", false));
+  World sleepy = test::loadWorld(test::tempDir("sleep_rest_on"), scene("sleep_rest_on", true));
+  Solver a(awake), s(sleepy);
+  a.advanceTo(1.1);
+  s.advanceTo(0.8);
+  const StepRecord settled = s.record();
+  s.resetLoads();
+  s.advanceTo(1.1);
+  const double share = double(s.record().sleeping_steps - settled.sleeping_steps) /
+                       double(s.record().particle_steps - settled.particle_steps);
+  const RigidBody& ball = sleepy.bodies[0];
+  const double weight = ball.mass * 9.81;
+  const double ya = awake.bodies[0].state.x.y(), ys = ball.state.x.y();
+  std::printf("asleep %.1f%% from 0.8 s; ball at %.4f m (awake %.4f); force %.3f of its weight\n",
+              100 * share, ys, ya, s.bodyLoads()[0].force().y() / weight);
+  EXPECT_GT(share, 0.8);
+  EXPECT_NEAR(ys, ya, 0.1 * kDx);
+  EXPECT_NEAR(s.bodyLoads()[0].force().y(), weight, 0.03 * weight);
+  EXPECT_LT(largestDifference(awake, sleepy), 0.1 * kDx);
+}
+
 }  // namespace
 }  // namespace triad

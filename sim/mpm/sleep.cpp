@@ -26,7 +26,23 @@ int blockCoord(double x, float origin, float inv_dx) {
   return blockOf(int(std::clamp(node, -1e9, 1e9)));
 }
 
+Vec3i blockOfPoint(const Vec3d& x, const Vec3f& origin, float inv_dx) {
+  return {blockCoord(x.x(), origin.x(), inv_dx), blockCoord(x.y(), origin.y(), inv_dx),
+          blockCoord(x.z(), origin.z(), inv_dx)};
+}
+
 }  // namespace
+
+bool SleepTracker::calmWithin(const WakeBox& box, const Vec3f& origin, float inv_dx) const {
+  const Vec3i lo = blockOfPoint(box.lo, origin, inv_dx), hi = blockOfPoint(box.hi, origin, inv_dx);
+  for (size_t b = 0; b < state_.keys.size(); ++b) {
+    const Vec3i c = unpackBlock(state_.keys[b]);
+    if ((c.array() >= lo.array()).all() && (c.array() <= hi.array()).all() &&
+        state_.still[b] < desc_.delay)
+      return false;
+  }
+  return true;
+}
 
 size_t SleepTracker::classify(GridLayout& layout, const std::vector<WakeBox>& wake,
                               const Vec3f& origin, float inv_dx) {
@@ -55,11 +71,7 @@ size_t SleepTracker::classify(GridLayout& layout, const std::vector<WakeBox>& wa
   // Blocks near a moving solid stay awake.
   std::vector<uint8_t> woken(nblocks, 0);
   for (const WakeBox& w : wake) {
-    Vec3i lo, hi;
-    for (int d = 0; d < 3; ++d) {
-      lo[d] = blockCoord(w.lo[d], origin[d], inv_dx);
-      hi[d] = blockCoord(w.hi[d], origin[d], inv_dx);
-    }
+    const Vec3i lo = blockOfPoint(w.lo, origin, inv_dx), hi = blockOfPoint(w.hi, origin, inv_dx);
     for (size_t b = 0; b < nblocks; ++b) {
       const Vec3i c = unpackBlock(layout.particle_keys[b]);
       if ((c.array() >= lo.array()).all() && (c.array() <= hi.array()).all()) woken[b] = 1;

@@ -34,8 +34,9 @@ struct SleepState {
   std::vector<uint64_t> keys;    // sorted
   std::vector<uint32_t> counts;  // particles of all sets in the block
   std::vector<double> still;     // seconds below the speed threshold
+  std::vector<double> body_still;  // per rigid body (world order), likewise
   bool operator==(const SleepState& o) const {
-    return keys == o.keys && counts == o.counts && still == o.still;
+    return keys == o.keys && counts == o.counts && still == o.still && body_still == o.body_still;
   }
 };
 
@@ -53,6 +54,16 @@ class SleepTracker {
   // After the gather: `speed2` holds each awake block's largest squared
   // particle speed (sleeping blocks: anything). Advances the still times.
   void update(const GridLayout& layout, const std::vector<float>& speed2, double dt);
+
+  // Whether every particle block of the last step within `box` had been
+  // still for the delay (blocks that a body resting there would let sleep).
+  bool calmWithin(const WakeBox& box, const Vec3f& origin, float inv_dx) const;
+
+  // Seconds each rigid body (world order) has been slower than the speed;
+  // kept by the solver, saved with the rest.
+  std::vector<double>& bodyStill() { return state_.body_still; }
+  double delay() const { return desc_.delay; }
+  double speed() const { return desc_.speed; }
 
   const SleepState& state() const { return state_; }
   void restore(SleepState s) { state_ = std::move(s); }
