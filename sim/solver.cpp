@@ -187,10 +187,14 @@ void Solver::binParticles() {
   binner_.bin(world_.sets, params_.shifted_origin, params_.inv_dx, layout_);
 }
 
-WakeBox Solver::wakeBox(const RigidBody& b) const {
-  // Bodies move less than a cell a step: two blocks of margin wake the
+double Solver::wakeMargin() const {
+  // Solids move less than a cell a step: two blocks of margin wake the
   // material before they reach it.
-  const double margin = 2.0 * kBlockSize * world_.scene.domain.dx;
+  return 2.0 * kBlockSize * world_.scene.domain.dx;
+}
+
+WakeBox Solver::wakeBox(const RigidBody& b) const {
+  const double margin = wakeMargin();
   const Vec3d r = Vec3d::Constant(double(b.radius) + margin);
   return {b.state.x - r, b.state.x + r};
 }
@@ -232,7 +236,7 @@ void Solver::updateBodyStillness(double dt) {
 }
 
 WakeBox Solver::elasticBox(const ElasticSolid& e) const {
-  const double margin = 2.0 * kBlockSize * world_.scene.domain.dx;
+  const double margin = wakeMargin();
   WakeBox w{Vec3d::Constant(std::numeric_limits<double>::max()),
             Vec3d::Constant(std::numeric_limits<double>::lowest())};
   for (const Vec3d& x : e.fem.x) {

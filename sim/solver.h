@@ -100,6 +100,7 @@ class Solver {
   // they neither fall nor keep the material around them awake.
   void sleepBodies();
   void updateBodyStillness(double dt);
+  double wakeMargin() const;  // beyond a moving solid's bounds, metres
   WakeBox wakeBox(const RigidBody& b) const;
   WakeBox elasticBox(const ElasticSolid& e) const;
   void computeStress(float dt);

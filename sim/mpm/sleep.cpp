@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "sim/mpm/halo.h"
 #include "sim/mpm/particles.h"
 
 namespace triad {
@@ -121,19 +122,10 @@ void freezeSleepingNodes(const GridLayout& layout, std::vector<GridNode>& grid,
   if (layout.asleep.empty()) return;
   for (size_t pb = 0; pb < layout.particleBlocks(); ++pb) {
     if (!layout.asleep[pb]) continue;
-    // The block's own nodes and the first two layers of its + neighbours:
-    // every node its particles' quadratic stencils reach.
-    const auto& nb = layout.neighbours[pb];
-    for (int x = 0; x < kHalo; ++x)
-      for (int y = 0; y < kHalo; ++y)
-        for (int z = 0; z < kHalo; ++z) {
-          const int d = ((x >> kBlockBits) << 2) | ((y >> kBlockBits) << 1) | (z >> kBlockBits);
-          const int k = ((x & (kBlockSize - 1)) * kBlockSize + (y & (kBlockSize - 1))) * kBlockSize +
-                        (z & (kBlockSize - 1));
-          const size_t node = size_t{nb[d]} * kBlockNodes + size_t(k);
-          grid[node].v[0] = grid[node].v[1] = grid[node].v[2] = 0.0f;
-          if (flip) (*flip)[node].v[0] = (*flip)[node].v[1] = (*flip)[node].v[2] = 0.0f;
-        }
+    forHalo(layout, pb, [&](int, size_t node) {
+      grid[node].v[0] = grid[node].v[1] = grid[node].v[2] = 0.0f;
+      if (flip) (*flip)[node].v[0] = (*flip)[node].v[1] = (*flip)[node].v[2] = 0.0f;
+    });
   }
 }
 

@@ -2,6 +2,7 @@
 
 #include <cstring>
 
+#include "sim/mpm/halo.h"
 #include "sim/mpm/particles.h"
 
 namespace triad {
@@ -15,24 +16,6 @@ struct HaloBuffer {
   alignas(64) float d[kHaloNodes][kChannels];
   static int index(int x, int y, int z) { return (x * kHalo + y) * kHalo + z; }
 };
-
-// Node offset inside a grid block.
-inline int blockNode(int x, int y, int z) { return (x * kBlockSize + y) * kBlockSize + z; }
-
-// Calls f(halo_index, grid_node_index) for every node of particle block pb's
-// halo, mapping it into the eight grid blocks it straddles.
-template <class F>
-void forHalo(const GridLayout& layout, size_t pb, F&& f) {
-  const auto& nb = layout.neighbours[pb];
-  for (int x = 0; x < kHalo; ++x)
-    for (int y = 0; y < kHalo; ++y)
-      for (int z = 0; z < kHalo; ++z) {
-        const int d = ((x >> kBlockBits) << 2) | ((y >> kBlockBits) << 1) | (z >> kBlockBits);
-        const size_t node = size_t{nb[d]} * kBlockNodes +
-                            blockNode(x & (kBlockSize - 1), y & (kBlockSize - 1), z & (kBlockSize - 1));
-        f(HaloBuffer<4>::index(x, y, z), node);
-      }
-}
 
 // Position of a stencil's base node inside particle block pb's halo.
 inline Vec3i haloOffset(const Stencil& s, const GridLayout& layout, size_t pb) {
