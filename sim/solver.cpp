@@ -403,9 +403,11 @@ void Solver::predictSolids(double dt) {
       points_.x.push_back(fem.x[i].cast<float>());
       points_.v.push_back(fem.v[i].cast<float>());
       points_.n.push_back(e.normal(i).cast<float>());
-      // Elastic nodes carry no distance: every node their stencils reach
-      // takes part in the contact, whatever the reach.
-      points_.phi.push_back(-std::numeric_limits<float>::infinity());
+      // Each node carries its distance at rest along its normal now, as a
+      // rigid sample does: the contact's gap and the distance's normal
+      // then apply to elastic solids too (without them a solid resting on
+      // sand stood off it by 0.3-0.45 dx).
+      points_.phi.push_back(e.phi0[i]);
       points_.point_mass.push_back(float(fem.mass[i]));
     }
   }

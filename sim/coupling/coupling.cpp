@@ -328,7 +328,13 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
       Shared& c = shared_[out++];
       c.P = c.T = c.dP = Vec3f::Zero();
       c.lambda = 0.0f;
-      c.close = gap_.size() == nodes_.size() && sn.phi > -1e29f && gap_[i] < 1e29f
+      // Elastic solids (moving nodes of their own mass) take no gap: with
+      // it a soft jelly let a sand stream slide off its top (17 of 384
+      // particles stayed, against 209) and a dropped one dug a crater 1.2
+      // cells deep into sand (bench/RESULTS.md, "Elastic solids on sand").
+      const bool elastic = sn.owner > 0 && pts.kind[size_t(sn.owner - 1)] == SolidKind::Moving &&
+                           pts.body_mass[size_t(sn.owner - 1)] == 0.0;
+      c.close = gap_.size() == nodes_.size() && sn.phi > -1e29f && gap_[i] < 1e29f && !elastic
                     ? gap_[i] / p.dt
                     : 0.0f;
       c.i = uint32_t(i);
@@ -349,8 +355,8 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
       c.v_cmp = before ? pre_[i] : c.v_mpm;
       // The distance's normal where one solid with a distance holds the
       // node: outside it the closest point's direction, inside the normal
-      // of the face the node is nearest; otherwise (elastic solids, nodes
-      // of several) the summed one.
+      // of the face the node is nearest; otherwise (nodes of several
+      // solids) the summed one.
       const Vec3f nsum(sn.n[0], sn.n[1], sn.n[2]), ndist(sn.dn[0], sn.dn[1], sn.dn[2]);
       const Vec3f nout(sn.on[0], sn.on[1], sn.on[2]);
       if (by_distance && sn.owner > 0 && sn.phi > 0.0f && nout.norm() > 0.0f)

@@ -1,5 +1,6 @@
 #include "sim/solids/elastic_solid.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "sim/mpm/sparse_grid.h"
@@ -64,6 +65,21 @@ ElasticSolid makeElasticSolid(int object, const std::string& name, const Collisi
     const double len = n.norm();
     n = len > 0 ? Vec3d(n / len) : Vec3d(0, 1, 0);
   }
+  // Node distances: a node with fewer than eight cells around it lies on
+  // the boundary. A cell's six tetrahedra are consecutive.
+  std::vector<int> cells(m.nodes.size(), 0), last(m.nodes.size(), -1);
+  std::vector<double> sum(m.nodes.size(), 0.0);
+  for (size_t t = 0; t < m.tets.size(); ++t)
+    for (int k = 0; k < 4; ++k) {
+      const size_t i = size_t(m.tets[t][k]);
+      if (last[i] == int(t / 6)) continue;
+      last[i] = int(t / 6);
+      cells[i]++;
+      sum[i] += samples.phi[t / 6];
+    }
+  e.phi0.assign(m.nodes.size(), 0.0f);
+  for (size_t i = 0; i < m.nodes.size(); ++i)
+    if (cells[i] == 8) e.phi0[i] = float(std::min(0.0, sum[i] / 8.0));
   for (const Vec3d& c : m.cells) e.cell_keys.insert(packBlock(e.cellIndex(c)));
   // A corner's lattice index is that of the cell whose lowest corner it is.
   for (size_t i = 0; i < m.nodes.size(); ++i)

@@ -24,6 +24,10 @@ struct ElasticSolid {
   // one element it belongs to, whose deformation turns the normal.
   std::vector<Vec3d> normal0;
   std::vector<int> node_tet;
+  // Per node: signed distance to the mesh's boundary at rest (0 on it, the
+  // mean of its eight cells' sample distances inside), which the coupling
+  // carries along the node's normal as it does a rigid sample's.
+  std::vector<float> phi0;
   // The voxel cells at rest by lattice coordinates (mesh.cells[c] =
   // cells[0] + spacing * ijk): where the solid's boundary is, for contact
   // with other elastic solids (sim/elastic_contact.h).
