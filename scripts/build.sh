@@ -8,7 +8,10 @@ kind=${1:-release}
 shift || true
 case "$kind" in
   release) dir=build; flags=(-DCMAKE_BUILD_TYPE=Release) ;;
-  sanitize) dir=build-sanitize; flags=(-DCMAKE_BUILD_TYPE=RelWithDebInfo "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g" -DTRIAD_SANITIZE=ON) ;;
+  # Line tables only (-g1): the sanitizers' reports keep file and line, and
+  # the build is a quarter to a third faster than with full debug
+  # information (app/check_scene.cpp: 15-21 s against 23-27 s).
+  sanitize) dir=build-sanitize; flags=(-DCMAKE_BUILD_TYPE=RelWithDebInfo "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g1" -DTRIAD_SANITIZE=ON) ;;
   *) echo "usage: $0 [release|sanitize] [targets...]" >&2; exit 2 ;;
 esac
 cmake -S . -B "$dir" -G Ninja "${flags[@]}" >/dev/null

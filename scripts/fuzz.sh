@@ -20,7 +20,7 @@ targets=("$@")
 [ ${#targets[@]} -eq 0 ] && targets=(scene mesh)
 out=build-fuzz
 mkdir -p "$out/scene" "$out/mesh"
-flags=(-std=c++17 -O1 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined
+flags=(-std=c++17 -O1 -gline-tables-only -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined
        -I. -I/usr/include/eigen3)
 # The two targets compile side by side (CI's time is mostly compiling).
 clang++ "${flags[@]}" fuzz/fuzz_scene.cpp import/scene_file.cpp import/scene_loader.cpp \
