@@ -13,6 +13,7 @@
 
 #include <Eigen/Cholesky>
 
+#include "sim/solids/elastic_solid.h"
 #include "sim/solids/fem.h"
 #include "sim/solids/tet_mesh.h"
 
@@ -425,6 +426,52 @@ TEST(Fem, ImplicitVibrationRingsAndDecaysAsBackwardEuler) {
               period_im, expect_period, amp2 / amp1, expect_ratio);
   EXPECT_NEAR(period_im / period, expect_period / period, 0.002);
   EXPECT_NEAR(amp2 / amp1, expect_ratio, 0.04);
+}
+
+// An elastic solid's nodes carry their distance to the mesh's boundary at
+// rest, as the coupling reads it: 0 on the boundary; -h one layer in under
+// a face (half its cells a half spacing deep, half one and a half); never
+// deeper than the node really is, and at least half a spacing deep (the
+// mean of a node's cells' distances is shallower along edges and on the
+// medial axis: -0.75 h one layer in under an edge, -0.625 h under a
+// corner).
+TEST(ElasticSolid, NodesCarryTheirDistanceAtRest) {
+  const double h = 0.01;
+  const Vec3d lo(0.1, 0.2, 0.3);
+  const Eigen::Vector3i n(4, 4, 6);
+  const Vec3d hi = lo + h * n.cast<double>();
+  CollisionSamples samples;
+  samples.spacing = h;
+  for (const Vec3d& c : boxCells(lo, n, h)) {
+    samples.x.push_back(c.cast<float>());
+    samples.phi.push_back(-float(std::min((c - lo).minCoeff(), (hi - c).minCoeff())));
+    samples.normal.push_back(Vec3f(0, 1, 0));
+  }
+  const ElasticSolid e =
+      makeElasticSolid(0, "box", samples, TriSurface{}, rubber(1e5, 0.3), 0.5, Vec3d::Zero());
+  ASSERT_EQ(e.phi0.size(), size_t(5 * 5 * 7));
+  int boundary = 0, under_a_face = 0;
+  for (size_t i = 0; i < e.phi0.size(); ++i) {
+    // Depth along each axis, in spacings (the samples are floats).
+    const Vec3d x = e.fem.mesh.nodes[i];
+    const Vec3d d = (x - lo).cwiseMin(hi - x) / h;
+    const double depth = h * d.minCoeff();
+    if (d.minCoeff() < 1e-4) {
+      EXPECT_EQ(e.phi0[i], 0.0f);
+      ++boundary;
+      continue;
+    }
+    EXPECT_LE(e.phi0[i], -0.5 * h + 1e-6);
+    EXPECT_GE(e.phi0[i], -depth - 1e-6);
+    int shallow = 0;
+    for (int a = 0; a < 3; ++a) shallow += d[a] < 1.5;
+    if (shallow == 1) {
+      EXPECT_NEAR(e.phi0[i], -h, 1e-6);
+      ++under_a_face;
+    }
+  }
+  EXPECT_EQ(boundary, 5 * 5 * 7 - 3 * 3 * 5);
+  EXPECT_EQ(under_a_face, 6 + 6 + 2);
 }
 
 }  // namespace
