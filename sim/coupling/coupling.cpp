@@ -329,9 +329,9 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
       c.P = c.T = c.dP = Vec3f::Zero();
       c.lambda = 0.0f;
       // Elastic solids (moving nodes of their own mass) take no gap: with
-      // it a soft jelly let a sand stream slide off its top (17 of 384
-      // particles stayed, against 209) and a dropped one dug a crater 1.2
-      // cells deep into sand (bench/RESULTS.md, "Elastic solids on sand").
+      // it a soft jelly let a sand stream slide off its top (17-29 of 384
+      // particles stayed, against 210) and a dropped one dug a crater a
+      // cell deep into sand (bench/RESULTS.md, "Elastic solids on sand").
       const bool elastic = sn.owner > 0 && pts.kind[size_t(sn.owner - 1)] == SolidKind::Moving &&
                            pts.body_mass[size_t(sn.owner - 1)] == 0.0;
       c.close = gap_.size() == nodes_.size() && sn.phi > -1e29f && gap_[i] < 1e29f && !elastic
