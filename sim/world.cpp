@@ -265,6 +265,9 @@ World buildWorld(const SceneDesc& scene, const MeshSampler& mesh_sampler,
       continue;
     }
     const Vec3f vel(float(obj.velocity[0]), float(obj.velocity[1]), float(obj.velocity[2]));
+    // Exact capacity: grown by doubling, the arrays held a fifth more than
+    // the particles (21 bytes per particle on the 216k jelly cube).
+    set.reserve(set.size() + points.size());
     for (const Vec3f& p : points) set.push(p, vel, next_id++, static_cast<uint16_t>(i));
     world.object_particles[i] = points.size();
   }

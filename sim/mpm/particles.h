@@ -31,6 +31,8 @@ struct ParticleSet {
   bool usesJ() const;
   // Append one particle at rest state.
   void push(const Vec3f& pos, const Vec3f& vel, uint32_t pid, uint16_t obj);
+  // Room for n particles in every attribute this material uses.
+  void reserve(size_t n);
   // Total volume ratio det(F) * J (or J alone for water) of particle i.
   float volumeRatio(size_t i) const;
   // Reorder every attribute by `src` (new[i] = old[src[i]]), using `scratch`.
