@@ -50,6 +50,7 @@ const ParamDict::Choices<MaterialModel> kModels = {
     {"neo_hookean", MaterialModel::NeoHookean},
     {"snow", MaterialModel::Snow},
     {"drucker_prager", MaterialModel::DruckerPrager},
+    {"mohr_coulomb", MaterialModel::MohrCoulomb},
     {"water", MaterialModel::Water}};
 const ParamDict::Choices<ObjectKind> kKinds = {{"mpm", ObjectKind::Mpm},
                                                {"rigid", ObjectKind::Rigid},
@@ -214,11 +215,13 @@ SolverDesc parseSolver(const ParamDict& root) {
 std::string materialKeyHint(const std::string& key) {
   std::string owner;
   if (key == "youngs_modulus" || key == "poisson_ratio") {
-    owner = "fixed_corotated, neo_hookean, snow and drucker_prager";
+    owner = "fixed_corotated, neo_hookean, snow, drucker_prager and mohr_coulomb";
   } else if (key == "critical_compression" || key == "critical_stretch" || key == "hardening") {
     owner = "snow";
   } else if (key == "friction_angle_deg" || key == "cohesion") {
-    owner = "drucker_prager";
+    owner = "drucker_prager and mohr_coulomb";
+  } else if (key == "dilatancy_angle_deg") {
+    owner = "mohr_coulomb";
   } else if (key == "bulk_modulus" || key == "viscosity" || key == "gamma") {
     owner = "water";
   }
@@ -245,10 +248,15 @@ MaterialDesc parseMaterial(const std::string& name, const ParamDict& d) {
     m.critical_stretch = d.getDouble("critical_stretch", m.critical_stretch, Range::positive());
     m.hardening = d.getDouble("hardening", m.hardening, Range::nonNegative());
   }
-  if (m.model == MaterialModel::DruckerPrager) {
+  if (m.model == MaterialModel::DruckerPrager || m.model == MaterialModel::MohrCoulomb) {
     m.friction_angle_deg =
         d.getDouble("friction_angle_deg", m.friction_angle_deg, Range::closedOpen(0, 90));
     m.cohesion = d.getDouble("cohesion", m.cohesion, Range::nonNegative());
+  }
+  if (m.model == MaterialModel::MohrCoulomb) {
+    // Dilatancy beyond friction would make the flow create energy.
+    m.dilatancy_angle_deg = d.getDouble("dilatancy_angle_deg", m.dilatancy_angle_deg,
+                                        Range::closed(0, m.friction_angle_deg));
   }
   d.checkUnknownKeys("for model " + inQuotes(nameOf(kModels, m.model)), materialKeyHint);
   return m;

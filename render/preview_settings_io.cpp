@@ -75,7 +75,8 @@ std::vector<LegendEntry> readSwatches(const Reader& r, const json& j, const std:
 std::array<float, 3> materialColor(MaterialModel model, int first_object) {
   switch (model) {
     case MaterialModel::Water: return {0.10f, 0.33f, 0.80f};
-    case MaterialModel::DruckerPrager: return {0.72f, 0.56f, 0.33f};
+    case MaterialModel::DruckerPrager:
+    case MaterialModel::MohrCoulomb: return {0.72f, 0.56f, 0.33f};
     case MaterialModel::Snow: return {0.90f, 0.92f, 0.95f};
     default: return objectColor(first_object);
   }

@@ -30,7 +30,7 @@ enum class ContactNormal { Samples, Distance };
 // Jacobi passes over the nodes or by Newton's method on the body's velocity.
 enum class RigidCollision { Jacobi, Newton };
 
-enum class MaterialModel { FixedCorotated, NeoHookean, Snow, DruckerPrager, Water };
+enum class MaterialModel { FixedCorotated, NeoHookean, Snow, DruckerPrager, MohrCoulomb, Water };
 enum class ObjectKind { Mpm, Rigid, Elastic, Collider, Sink };
 enum class ElasticIntegrator { Explicit, Implicit };
 
@@ -97,9 +97,11 @@ struct MaterialDesc {
   double critical_compression = 2.5e-2;
   double critical_stretch = 7.5e-3;
   double hardening = 10.0;
-  // Drucker-Prager sand (Klar et al. 2016). Cohesion in pascals.
+  // Drucker-Prager and Mohr-Coulomb sand. Cohesion in pascals; the
+  // dilatancy angle (Mohr-Coulomb only) sets the plastic flow's volume change.
   double friction_angle_deg = 30.0;
   double cohesion = 0.0;
+  double dilatancy_angle_deg = 0.0;
   // Weakly compressible water (Tait equation of state).
   double bulk_modulus = 0.0;
   double viscosity = 0.0;  // dynamic viscosity, Pa s

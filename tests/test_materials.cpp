@@ -11,29 +11,16 @@
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
 
+#include "tests/material_helpers.h"
+
 namespace triad {
 namespace {
+
+using namespace test;
 
 using Mat9d = Mat9<double>;
 
 constexpr double kE = 1e4, kNu = 0.3;  // moduli of order 1e3..1e4
-
-template <class A, class B>
-double relErr(const A& a, const B& b) {
-  return double((a - b).norm() / std::max(b.norm(), decltype(b.norm())(1e-30)));
-}
-
-Mat3d randomRotation(std::mt19937& rng) {
-  std::normal_distribution<double> g(0, 1);
-  return Eigen::Quaterniond(g(rng), g(rng), g(rng), g(rng)).normalized().toRotationMatrix();
-}
-
-Mat3d nearIdentity(std::mt19937& rng, double amount = 0.1) {
-  std::normal_distribution<double> g(0, 1);
-  Mat3d F = Mat3d::Identity();
-  for (int k = 0; k < 9; ++k) F.data()[k] += amount * g(rng);
-  return F;
-}
 
 // Rotated stretches in [0.4, 2.5]: large but uninverted deformations.
 Mat3d largeDeformation(std::mt19937& rng) {
@@ -256,13 +243,6 @@ TEST(StvkHencky, MatchesPrincipalStressesAndSurvivesSingularF) {
 }
 
 // Singular values (rotation-variant) of F in double.
-Vec3d singularValues(const Mat3d& F) {
-  Mat3d U, V;
-  Vec3d s;
-  svd3(F, U, s, V);
-  return s;
-}
-
 TEST(Snow, ProjectClampsStretchesAndKeepsTotalVolume) {
   const Snow<double> snow = makeSnow();
   const double lo = 1 - snow.critical_compression, hi = 1 + snow.critical_stretch;
@@ -330,14 +310,6 @@ TEST(Snow, ProjectAndKirchhoffEqualsTheTwoCalls) {
 }
 
 // Hencky strain log|s| of F.
-Vec3d henckyStrain(const Mat3d& F) {
-  return singularValues(F).array().abs().log();
-}
-
-Mat3d withStrain(std::mt19937& rng, const Vec3d& eps) {
-  return randomRotation(rng) * eps.array().exp().matrix().asDiagonal() * randomRotation(rng);
-}
-
 TEST(DruckerPrager, ConeParameters) {
   const DruckerPrager<double> dp(kE, kNu, 30, 100);
   const double sin30 = 0.5;

@@ -625,6 +625,28 @@ TEST_F(SceneLoaderTest, ParameterOfAnotherModelIsAnUnknownKey) {
   EXPECT_TRUE(contains(error(j), {"materials.jelly.gamma", "water"}));
 }
 
+TEST_F(SceneLoaderTest, MohrCoulombSandTakesFrictionCohesionAndDilatancy) {
+  json j = exampleScene();
+  j["materials"]["sand"]["model"] = "mohr_coulomb";
+  j["materials"]["sand"]["friction_angle_deg"] = 32;
+  j["materials"]["sand"]["cohesion"] = 5;
+  j["materials"]["sand"]["dilatancy_angle_deg"] = 4;
+  const SceneDesc s = load(j);
+  const MaterialDesc& sand = s.materials[1];
+  EXPECT_EQ(sand.model, MaterialModel::MohrCoulomb);
+  EXPECT_EQ(sand.friction_angle_deg, 32.0);
+  EXPECT_EQ(sand.cohesion, 5.0);
+  EXPECT_EQ(sand.dilatancy_angle_deg, 4.0);
+  // Dilatancy beyond friction is refused, with the range it had.
+  j["materials"]["sand"]["dilatancy_angle_deg"] = 40;
+  EXPECT_TRUE(contains(error(j), {"materials.sand.dilatancy_angle_deg", "[0, 32]", "got 40"}));
+  // Drucker-Prager has no dilatancy: the message names the model that does.
+  j = exampleScene();
+  j["materials"]["sand"]["dilatancy_angle_deg"] = 4;
+  EXPECT_TRUE(contains(error(j), {"materials.sand.dilatancy_angle_deg", "unknown key",
+                                  "mohr_coulomb"}));
+}
+
 TEST_F(SceneLoaderTest, KeyOfAnotherObjectKindIsAnUnknownKey) {
   EXPECT_TRUE(contains(error(with(exampleScene(), "/objects/0/density", 1000)),
                        {"objects[0].density", "kind \"mpm\"", "only rigid objects"}));

@@ -33,6 +33,10 @@ Material makeMaterial(const MaterialDesc& d) {
       sand.cohesion_strain = float(dp.cohesion_strain);
       return sand;
     }
+    case MaterialModel::MohrCoulomb:
+      return MohrCoulomb<float>(float(d.youngs_modulus), float(d.poisson_ratio),
+                                float(d.friction_angle_deg), float(d.cohesion),
+                                float(d.dilatancy_angle_deg));
     case MaterialModel::Water:
       return Water<float>{float(d.bulk_modulus), float(d.gamma), float(d.viscosity)};
   }
@@ -55,6 +59,8 @@ const char* modelName(MaterialModel model) {
       return "snow";
     case MaterialModel::DruckerPrager:
       return "drucker_prager";
+    case MaterialModel::MohrCoulomb:
+      return "mohr_coulomb";
     case MaterialModel::Water:
       return "water";
   }
@@ -96,6 +102,19 @@ void projectAndKirchhoffBatch(const Snow<float>& m, int n, Mat3f* Fe, float* Jp,
 }
 
 void projectAndKirchhoffBatch(const DruckerPrager<float>& m, int n, Mat3f* F, Mat3f* tau) {
+  Mat3f U[kChunk], V[kChunk];
+  Vec3f s[kChunk];
+  for (int b = 0; b < n; b += kChunk) {
+    const int count = std::min(kChunk, n - b);
+    svd3Batch(count, F + b, U, s, V);
+    for (int i = 0; i < count; ++i) {
+      m.projectSvd(U[i], s[i], V[i], F[b + i]);
+      tau[b + i] = m.elastic.kirchhoffFromSvd(U[i], s[i]);
+    }
+  }
+}
+
+void projectAndKirchhoffBatch(const MohrCoulomb<float>& m, int n, Mat3f* F, Mat3f* tau) {
   Mat3f U[kChunk], V[kChunk];
   Vec3f s[kChunk];
   for (int b = 0; b < n; b += kChunk) {

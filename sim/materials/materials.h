@@ -3,7 +3,7 @@
 // the scalar (ziran2020 style): float in the solver, double in tests.
 //
 //   FixedCorotated, NeoHookean, StvkHencky   sim/elastic_models.h
-//   Snow, DruckerPrager                      sim/plastic_models.h
+//   Snow, DruckerPrager, MohrCoulomb         sim/plastic_models.h
 //   Water                                    below
 //
 // Each model says what per-particle state it needs: kUsesF (a deformation
@@ -69,7 +69,7 @@ struct Water {
 
 // The solver's materials, one alternative per MaterialModel.
 using Material = std::variant<FixedCorotated<float>, NeoHookean<float>, Snow<float>,
-                              DruckerPrager<float>, Water<float>>;
+                              DruckerPrager<float>, MohrCoulomb<float>, Water<float>>;
 
 // The model for a validated description (scene loader output).
 Material makeMaterial(const MaterialDesc& desc);
@@ -79,7 +79,8 @@ Material makeMaterial(const MaterialDesc& desc);
 // up to Snow::stiffnessScale(min_jp); that is not included.
 float waveSpeed(const MaterialDesc& desc);
 
-// "fixed_corotated", "neo_hookean", "snow", "drucker_prager", "water".
+// "fixed_corotated", "neo_hookean", "snow", "drucker_prager", "mohr_coulomb",
+// "water".
 const char* modelName(MaterialModel model);
 
 // Batched hot paths over n particles. Inputs and outputs are arrays of n;
@@ -90,5 +91,6 @@ void kirchhoffBatch(const FixedCorotated<float>& m, int n, const Mat3f* F, Mat3f
 void projectAndKirchhoffBatch(const Snow<float>& m, int n, Mat3f* Fe, float* Jp, Mat3f* tau);
 // tau[i] = m.projectAndKirchhoff(F[i]); F is updated.
 void projectAndKirchhoffBatch(const DruckerPrager<float>& m, int n, Mat3f* F, Mat3f* tau);
+void projectAndKirchhoffBatch(const MohrCoulomb<float>& m, int n, Mat3f* F, Mat3f* tau);
 
 }  // namespace triad

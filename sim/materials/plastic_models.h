@@ -178,4 +178,145 @@ struct DruckerPrager {
   }
 };
 
+
+// Mohr-Coulomb sand on the same Hencky-strain StVK elasticity: the friction
+// angle means one strength in every stress state (triaxial compression and
+// extension, plane strain), where Drucker-Prager's cone matches it in one.
+// The principal Kirchhoff stresses tau_i = lambda tr(eps) + 2 mu eps_i are
+// linear in the principal log strains, so the return mapping is the
+// small-strain one in principal space (de Souza Neto, Peric & Owen 2008,
+// section 8.2): onto the main plane, else onto the edge the ordering says,
+// else onto the apex. With tau_1 >= tau_2 >= tau_3 (tension positive),
+//   f = (tau_1 - tau_3) + (tau_1 + tau_3) sin(phi) - 2 c cos(phi) <= 0,
+// and the plastic flow follows g = (tau_1 - tau_3) + (tau_1 + tau_3) sin(psi):
+// a dilatancy angle psi of 0 (the default) flows at constant volume, as the
+// Drucker-Prager return does; psi = phi is associative. The apex is the
+// hydrostatic tension c cot(phi); with phi = 0 (Tresca) there is none.
+template <class T>
+struct MohrCoulomb {
+  static constexpr bool kUsesF = true;
+  static constexpr bool kUsesPlasticJ = false;
+
+  StvkHencky<T> elastic;
+  T sin_phi = 0, cos_phi = 1, sin_psi = 0;
+  T cohesion = 0;  // c, pascals
+
+  MohrCoulomb() = default;
+  MohrCoulomb(T youngs_modulus, T poisson_ratio, T friction_angle_deg, T cohesion_pa,
+              T dilatancy_angle_deg = T(0))
+      : elastic(StvkHencky<T>::fromYoungPoisson(youngs_modulus, poisson_ratio)),
+        cohesion(cohesion_pa) {
+    const T rad = T(3.14159265358979323846 / 180.0);
+    sin_phi = std::sin(friction_angle_deg * rad);
+    cos_phi = std::cos(friction_angle_deg * rad);
+    sin_psi = std::sin(dilatancy_angle_deg * rad);
+  }
+
+  T psi(const Mat3<T>& F) const { return elastic.psi(F); }
+  Mat3<T> firstPiola(const Mat3<T>& F) const { return elastic.firstPiola(F); }
+  Mat3<T> kirchhoff(const Mat3<T>& F) const { return elastic.kirchhoff(F); }
+
+  // Yield function of principal stresses in any order, in pascals: <= 0
+  // inside, 0 on the surface.
+  T yieldOfStress(const Vec3<T>& tau) const {
+    const T hi = tau.maxCoeff(), lo = tau.minCoeff();
+    return (hi - lo) + (hi + lo) * sin_phi - T(2) * cohesion * cos_phi;
+  }
+
+  T yield(const Mat3<T>& F) const {
+    Mat3<T> U, V;
+    Vec3<T> s;
+    svd3(F, U, s, V);
+    return yieldOfStress(elastic.principalKirchhoff(StvkHencky<T>::henckyStrain(s)));
+  }
+
+  // Return mapping on the elastic F. Returns false, leaving F alone, iff F
+  // was inside the yield surface.
+  bool project(Mat3<T>& F) const {
+    Mat3<T> U, V;
+    Vec3<T> s;
+    svd3(F, U, s, V);
+    return projectSvd(U, s, V, F);
+  }
+
+  // project(), then tau of the resulting state from the same SVD.
+  Mat3<T> projectAndKirchhoff(Mat3<T>& F) const {
+    Mat3<T> U, V;
+    Vec3<T> s;
+    svd3(F, U, s, V);
+    projectSvd(U, s, V, F);
+    return elastic.kirchhoffFromSvd(U, s);
+  }
+
+  // The body of both; s is updated to the projected singular values.
+  bool projectSvd(const Mat3<T>& U, Vec3<T>& s, const Mat3<T>& V, Mat3<T>& F) const {
+    const Vec3<T> eps = StvkHencky<T>::henckyStrain(s);
+    const Vec3<T> tau = elastic.principalKirchhoff(eps);
+    if (yieldOfStress(tau) <= T(0)) return false;
+    // Sort the principal stresses: tau(o[0]) >= tau(o[1]) >= tau(o[2]).
+    int o[3] = {0, 1, 2};
+    if (tau(o[0]) < tau(o[1])) std::swap(o[0], o[1]);
+    if (tau(o[1]) < tau(o[2])) std::swap(o[1], o[2]);
+    if (tau(o[0]) < tau(o[1])) std::swap(o[0], o[1]);
+    const Vec3<T> sorted(tau(o[0]), tau(o[1]), tau(o[2]));
+    const Vec3<T> ret = returnSorted(sorted);
+    // Back to log strains: eps = (tau - lambda tr(tau) / (3 lambda + 2 mu)) / (2 mu).
+    const T mean = elastic.lambda * ret.sum() / (T(3) * elastic.lambda + T(2) * elastic.mu);
+    for (int i = 0; i < 3; ++i) s(o[i]) = std::exp((ret(i) - mean) / (T(2) * elastic.mu));
+    F = U * s.asDiagonal() * V.transpose();
+    return true;
+  }
+
+  // The stress a sorted trial state outside the surface returns to.
+  Vec3<T> returnSorted(const Vec3<T>& t) const {
+    const T k = T(2) * cohesion * cos_phi;
+    // Gradients of the yield planes and flow directions, in sorted
+    // principal space: the main plane (1, 3), the edge planes (1, 2) and
+    // (2, 3).
+    const Vec3<T> df_main(T(1) + sin_phi, T(0), -(T(1) - sin_phi));
+    const Vec3<T> dg_main(T(1) + sin_psi, T(0), -(T(1) - sin_psi));
+    const T f_main = df_main.dot(t) - k;
+    const Vec3<T> dn_main = stiffness(dg_main);
+    // Main plane.
+    const T dgamma = f_main / df_main.dot(dn_main);
+    const Vec3<T> main = t - dgamma * dn_main;
+    if (main(0) >= main(1) && main(1) >= main(2)) return main;
+    // An edge: tau_1 = tau_2 if the main return overtook tau_1 with tau_2,
+    // else tau_2 = tau_3. On the first the planes (1, 3) and (2, 3) are
+    // both active (either of the two largest is the maximum), on the second
+    // (1, 3) and (1, 2).
+    const bool upper = main(1) > main(0);
+    const Vec3<T> df_edge = upper ? Vec3<T>(T(0), T(1) + sin_phi, -(T(1) - sin_phi))
+                                  : Vec3<T>(T(1) + sin_phi, -(T(1) - sin_phi), T(0));
+    const Vec3<T> dg_edge = upper ? Vec3<T>(T(0), T(1) + sin_psi, -(T(1) - sin_psi))
+                                  : Vec3<T>(T(1) + sin_psi, -(T(1) - sin_psi), T(0));
+    const Vec3<T> dn_edge = stiffness(dg_edge);
+    const T f_edge = df_edge.dot(t) - k;
+    const T a11 = df_main.dot(dn_main), a12 = df_main.dot(dn_edge);
+    const T a21 = df_edge.dot(dn_main), a22 = df_edge.dot(dn_edge);
+    const T det = a11 * a22 - a12 * a21;
+    const T ga = (a22 * f_main - a12 * f_edge) / det;
+    const T gb = (a11 * f_edge - a21 * f_main) / det;
+    const Vec3<T> edge = t - ga * dn_main - gb * dn_edge;
+    // Round-off leaves the two equal stresses a few ulps apart: equal them.
+    const T tol = T(1e-5) * (std::abs(t(0)) + std::abs(t(2)) + cohesion);
+    if (ga >= T(0) && gb >= T(0) && edge(0) + tol >= edge(1) && edge(1) + tol >= edge(2)) {
+      Vec3<T> e = edge;
+      if (upper)
+        e(0) = e(1) = T(0.5) * (edge(0) + edge(1));
+      else
+        e(1) = e(2) = T(0.5) * (edge(1) + edge(2));
+      return e;
+    }
+    // The apex: hydrostatic tension c cot(phi) (Tresca has none; its
+    // edges hold every state, so this is reached only through round-off).
+    const T apex = sin_phi > T(1e-6) ? cohesion * cos_phi / sin_phi : t.mean();
+    return Vec3<T>::Constant(apex);
+  }
+
+ private:
+  // Principal stress of a principal strain: lambda tr(e) + 2 mu e.
+  Vec3<T> stiffness(const Vec3<T>& e) const { return elastic.principalKirchhoff(e); }
+};
+
 }  // namespace triad
