@@ -216,7 +216,8 @@ def measure_granular(scene, out):
     # Offsets of the particle lattice inside the cells: compare with the
     # initial extreme particles, not the box faces.
     runout = (pn["x"].max() - p0["x"].max()) / L0
-    height = (pn["y"].max() + (col["max"][1] - p0["y"].max())) / L0
+    # Heights from the floor the column stands on (a rigid box under it).
+    height = (pn["y"].max() + (col["max"][1] - p0["y"].max()) - col["min"][1]) / L0
     moved = (pn["x"].max() - p1["x"].max()) / L0
     ref_r, ref_h = lube_runout(a), lube_height(a)
     err_h = abs(height - ref_h) / ref_h
