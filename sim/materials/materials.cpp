@@ -101,7 +101,11 @@ void projectAndKirchhoffBatch(const Snow<float>& m, int n, Mat3f* Fe, float* Jp,
   }
 }
 
-void projectAndKirchhoffBatch(const DruckerPrager<float>& m, int n, Mat3f* F, Mat3f* tau) {
+namespace {
+
+// The Hencky-strain sands: batched SVDs, then each particle's return and stress.
+template <class M>
+void henckyPlasticBatch(const M& m, int n, Mat3f* F, Mat3f* tau) {
   Mat3f U[kChunk], V[kChunk];
   Vec3f s[kChunk];
   for (int b = 0; b < n; b += kChunk) {
@@ -114,17 +118,14 @@ void projectAndKirchhoffBatch(const DruckerPrager<float>& m, int n, Mat3f* F, Ma
   }
 }
 
+}  // namespace
+
+void projectAndKirchhoffBatch(const DruckerPrager<float>& m, int n, Mat3f* F, Mat3f* tau) {
+  henckyPlasticBatch(m, n, F, tau);
+}
+
 void projectAndKirchhoffBatch(const MohrCoulomb<float>& m, int n, Mat3f* F, Mat3f* tau) {
-  Mat3f U[kChunk], V[kChunk];
-  Vec3f s[kChunk];
-  for (int b = 0; b < n; b += kChunk) {
-    const int count = std::min(kChunk, n - b);
-    svd3Batch(count, F + b, U, s, V);
-    for (int i = 0; i < count; ++i) {
-      m.projectSvd(U[i], s[i], V[i], F[b + i]);
-      tau[b + i] = m.elastic.kirchhoffFromSvd(U[i], s[i]);
-    }
-  }
+  henckyPlasticBatch(m, n, F, tau);
 }
 
 }  // namespace triad

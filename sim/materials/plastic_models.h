@@ -82,6 +82,40 @@ struct Snow {
   }
 };
 
+// What the plastic models on Hencky-strain StVK elasticity share: the
+// elastic energy and stresses of the (projected) F, and the return mapping
+// through one SVD. Model supplies projectSvd(U, s, V, F), which moves s to
+// the projected singular values, writes F and says whether it moved.
+template <class T, class Model>
+struct HenckyPlastic {
+  static constexpr bool kUsesF = true;
+  static constexpr bool kUsesPlasticJ = false;
+
+  StvkHencky<T> elastic;
+
+  T psi(const Mat3<T>& F) const { return elastic.psi(F); }
+  Mat3<T> firstPiola(const Mat3<T>& F) const { return elastic.firstPiola(F); }
+  Mat3<T> kirchhoff(const Mat3<T>& F) const { return elastic.kirchhoff(F); }
+
+  // Return mapping on the elastic F. Returns false, leaving F alone, iff F
+  // was inside the yield surface.
+  bool project(Mat3<T>& F) const {
+    Mat3<T> U, V;
+    Vec3<T> s;
+    svd3(F, U, s, V);
+    return static_cast<const Model&>(*this).projectSvd(U, s, V, F);
+  }
+
+  // project(), then tau of the resulting state from the same SVD.
+  Mat3<T> projectAndKirchhoff(Mat3<T>& F) const {
+    Mat3<T> U, V;
+    Vec3<T> s;
+    svd3(F, U, s, V);
+    static_cast<const Model&>(*this).projectSvd(U, s, V, F);
+    return elastic.kirchhoffFromSvd(U, s);
+  }
+};
+
 // Drucker-Prager sand (Klar et al. 2016) on Hencky-strain StVK elasticity,
 // with the return mapping of ziran's DruckerPragerStvkHencky.
 //
@@ -98,17 +132,14 @@ struct Snow {
 // sand none. A friction angle of zero cannot carry cohesion in this model
 // (the apex would be at infinity); s_c is then zero.
 template <class T>
-struct DruckerPrager {
-  static constexpr bool kUsesF = true;
-  static constexpr bool kUsesPlasticJ = false;
-
-  StvkHencky<T> elastic;
+struct DruckerPrager : HenckyPlastic<T, DruckerPrager<T>> {
+  using HenckyPlastic<T, DruckerPrager<T>>::elastic;
   T alpha = 0;
   T cohesion_strain = 0;
 
   DruckerPrager() = default;
-  DruckerPrager(T youngs_modulus, T poisson_ratio, T friction_angle_deg, T cohesion_pa)
-      : elastic(StvkHencky<T>::fromYoungPoisson(youngs_modulus, poisson_ratio)) {
+  DruckerPrager(T youngs_modulus, T poisson_ratio, T friction_angle_deg, T cohesion_pa) {
+    elastic = StvkHencky<T>::fromYoungPoisson(youngs_modulus, poisson_ratio);
     const T phi = friction_angle_deg * T(3.14159265358979323846 / 180.0);
     const T sin_phi = std::sin(phi);
     alpha = std::sqrt(T(2) / T(3)) * T(2) * sin_phi / (T(3) - sin_phi);
@@ -116,10 +147,6 @@ struct DruckerPrager {
     const T tan_phi = std::tan(phi);
     cohesion_strain = tan_phi > T(1e-6) ? cohesion_pa / tan_phi / (T(3) * bulk) : T(0);
   }
-
-  T psi(const Mat3<T>& F) const { return elastic.psi(F); }
-  Mat3<T> firstPiola(const Mat3<T>& F) const { return elastic.firstPiola(F); }
-  Mat3<T> kirchhoff(const Mat3<T>& F) const { return elastic.kirchhoff(F); }
 
   // Yield function in strain units: <= 0 inside the cone, 0 on its surface.
   // Every state in hydrostatic tension beyond the apex (tr eps > 0) is
@@ -134,27 +161,10 @@ struct DruckerPrager {
     return dev.norm() + coneSlope() * tr;
   }
 
-  // Return mapping on the elastic F. Tension (tr eps >= 0) goes to the apex,
-  // a state outside the cone radially onto its surface in the deviatoric
-  // plane at constant tr(eps). Returns false, leaving F alone, iff F was
-  // inside the cone.
-  bool project(Mat3<T>& F) const {
-    Mat3<T> U, V;
-    Vec3<T> s;
-    svd3(F, U, s, V);
-    return projectSvd(U, s, V, F);
-  }
-
-  // project(), then tau of the resulting state from the same SVD.
-  Mat3<T> projectAndKirchhoff(Mat3<T>& F) const {
-    Mat3<T> U, V;
-    Vec3<T> s;
-    svd3(F, U, s, V);
-    projectSvd(U, s, V, F);
-    return elastic.kirchhoffFromSvd(U, s);
-  }
-
-  // The body of both; s is updated to the projected singular values.
+  // The return mapping on a decomposition of the elastic F (project() and
+  // projectAndKirchhoff() come from HenckyPlastic). Tension (tr eps >= 0)
+  // goes to the apex, a state outside the cone radially onto its surface
+  // in the deviatoric plane at constant tr(eps).
   bool projectSvd(const Mat3<T>& U, Vec3<T>& s, const Mat3<T>& V, Mat3<T>& F) const {
     const Vec3<T> eps = (StvkHencky<T>::henckyStrain(s).array() - cohesion_strain).matrix();
     const T tr = eps.sum();
@@ -193,28 +203,21 @@ struct DruckerPrager {
 // Drucker-Prager return does; psi = phi is associative. The apex is the
 // hydrostatic tension c cot(phi); with phi = 0 (Tresca) there is none.
 template <class T>
-struct MohrCoulomb {
-  static constexpr bool kUsesF = true;
-  static constexpr bool kUsesPlasticJ = false;
-
-  StvkHencky<T> elastic;
+struct MohrCoulomb : HenckyPlastic<T, MohrCoulomb<T>> {
+  using HenckyPlastic<T, MohrCoulomb<T>>::elastic;
   T sin_phi = 0, cos_phi = 1, sin_psi = 0;
   T cohesion = 0;  // c, pascals
 
   MohrCoulomb() = default;
   MohrCoulomb(T youngs_modulus, T poisson_ratio, T friction_angle_deg, T cohesion_pa,
               T dilatancy_angle_deg = T(0))
-      : elastic(StvkHencky<T>::fromYoungPoisson(youngs_modulus, poisson_ratio)),
-        cohesion(cohesion_pa) {
+      : cohesion(cohesion_pa) {
+    elastic = StvkHencky<T>::fromYoungPoisson(youngs_modulus, poisson_ratio);
     const T rad = T(3.14159265358979323846 / 180.0);
     sin_phi = std::sin(friction_angle_deg * rad);
     cos_phi = std::cos(friction_angle_deg * rad);
     sin_psi = std::sin(dilatancy_angle_deg * rad);
   }
-
-  T psi(const Mat3<T>& F) const { return elastic.psi(F); }
-  Mat3<T> firstPiola(const Mat3<T>& F) const { return elastic.firstPiola(F); }
-  Mat3<T> kirchhoff(const Mat3<T>& F) const { return elastic.kirchhoff(F); }
 
   // Yield function of principal stresses in any order, in pascals: <= 0
   // inside, 0 on the surface.
@@ -230,25 +233,8 @@ struct MohrCoulomb {
     return yieldOfStress(elastic.principalKirchhoff(StvkHencky<T>::henckyStrain(s)));
   }
 
-  // Return mapping on the elastic F. Returns false, leaving F alone, iff F
-  // was inside the yield surface.
-  bool project(Mat3<T>& F) const {
-    Mat3<T> U, V;
-    Vec3<T> s;
-    svd3(F, U, s, V);
-    return projectSvd(U, s, V, F);
-  }
-
-  // project(), then tau of the resulting state from the same SVD.
-  Mat3<T> projectAndKirchhoff(Mat3<T>& F) const {
-    Mat3<T> U, V;
-    Vec3<T> s;
-    svd3(F, U, s, V);
-    projectSvd(U, s, V, F);
-    return elastic.kirchhoffFromSvd(U, s);
-  }
-
-  // The body of both; s is updated to the projected singular values.
+  // The return mapping on a decomposition of the elastic F (project() and
+  // projectAndKirchhoff() come from HenckyPlastic).
   bool projectSvd(const Mat3<T>& U, Vec3<T>& s, const Mat3<T>& V, Mat3<T>& F) const {
     const Vec3<T> eps = StvkHencky<T>::henckyStrain(s);
     const Vec3<T> tau = elastic.principalKirchhoff(eps);
