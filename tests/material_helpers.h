@@ -5,6 +5,7 @@
 #include <random>
 
 #include <Eigen/Geometry>
+#include <gtest/gtest.h>
 
 #include "sim/math.h"
 #include "sim/svd3.h"
@@ -43,6 +44,20 @@ inline Vec3d henckyStrain(const Mat3d& F) {
 // A random rotation of the principal log strains eps.
 inline Mat3d withStrain(std::mt19937& rng, const Vec3d& eps) {
   return randomRotation(rng) * eps.array().exp().matrix().asDiagonal() * randomRotation(rng);
+}
+
+// A sand model leaves states inside its yield surface alone, bit for bit:
+// mostly volumetric compression with a little shear.
+template <class M>
+void expectInsideStatesUnchanged(const M& model, unsigned seed) {
+  std::mt19937 rng(seed);
+  for (int i = 0; i < 50; ++i) {
+    Mat3d F = withStrain(rng, Vec3d(-0.02, -0.021, -0.019));
+    ASSERT_LT(model.yield(F), 0);
+    const Mat3d before = F;
+    EXPECT_FALSE(model.project(F));
+    EXPECT_EQ(F, before);
+  }
 }
 
 }  // namespace triad::test
