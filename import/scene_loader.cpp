@@ -220,7 +220,8 @@ std::string materialKeyHint(const std::string& key) {
     owner = "snow";
   } else if (key == "friction_angle_deg" || key == "cohesion") {
     owner = "drucker_prager and mohr_coulomb";
-  } else if (key == "dilatancy_angle_deg") {
+  } else if (key == "dilatancy_angle_deg" || key == "grain_diameter" ||
+             key == "friction_angle_max_deg" || key == "inertial_number_i0") {
     owner = "mohr_coulomb";
   } else if (key == "bulk_modulus" || key == "viscosity" || key == "gamma") {
     owner = "water";
@@ -257,6 +258,17 @@ MaterialDesc parseMaterial(const std::string& name, const ParamDict& d) {
     // Dilatancy beyond friction would make the flow create energy.
     m.dilatancy_angle_deg = d.getDouble("dilatancy_angle_deg", m.dilatancy_angle_deg,
                                         Range::closed(0, m.friction_angle_deg));
+    // mu(I): the grain size turns it on; the defaults are Jop et al.'s
+    // glass beads (20.9 to 32.8 degrees, I_0 = 0.279) shifted to this angle.
+    m.grain_diameter = d.getDouble("grain_diameter", 0.0, Range::nonNegative());
+    m.friction_angle_max_deg =
+        d.getDouble("friction_angle_max_deg", std::min(m.friction_angle_deg + 11.86, 89.0),
+                    Range::closedOpen(m.friction_angle_deg, 90));
+    m.inertial_number_i0 =
+        d.getDouble("inertial_number_i0", m.inertial_number_i0, Range::positive());
+    for (const char* key : {"friction_angle_max_deg", "inertial_number_i0"})
+      if (d.has(key) && m.grain_diameter <= 0)
+        d.fail(key, "applies only with mu(I), which a positive \"grain_diameter\" turns on");
   }
   d.checkUnknownKeys("for model " + inQuotes(nameOf(kModels, m.model)), materialKeyHint);
   return m;

@@ -102,6 +102,11 @@ struct MaterialDesc {
   double friction_angle_deg = 30.0;
   double cohesion = 0.0;
   double dilatancy_angle_deg = 0.0;
+  // Mohr-Coulomb's mu(I): on when grain_diameter (m) > 0; the friction
+  // angle rises from friction_angle_deg at rest to friction_angle_max_deg.
+  double grain_diameter = 0.0;
+  double friction_angle_max_deg = 0.0;
+  double inertial_number_i0 = 0.279;
   // Weakly compressible water (Tait equation of state).
   double bulk_modulus = 0.0;
   double viscosity = 0.0;  // dynamic viscosity, Pa s

@@ -229,6 +229,38 @@ TEST(MohrCoulomb, ProjectAndKirchhoffEqualsTheTwoCallsAndTheFloatBatch) {
   }
 }
 
+TEST(MohrCoulomb, RateDependentFrictionFollowsMuOfI) {
+  // mu(I) = mu_s + (mu_2 - mu_s) I / (I_0 + I): at rest the static
+  // surface; at I = I_0 the friction coefficient halfway to mu_2.
+  MohrCoulomb<double> mc(kE, kNu, 25, 0);
+  mc.grain_diameter = 1e-3;
+  mc.density = 1600;
+  mc.mu_2 = std::tan(37 * M_PI / 180);
+  mc.i_0 = 0.3;
+  const MohrCoulomb<double> rest(kE, kNu, 25, 0);
+  std::mt19937 rng(29);
+  const Vec3d eps(-0.06, 0.01, 0.01);  // triaxial compression beyond 37 degrees
+  const double p = -mc.elastic.principalKirchhoff(eps).mean();
+  for (const double inertial : {0.0, 0.3, 3.0}) {
+    // Simple shear at gamma_dot = I sqrt(p / rho) / d.
+    Mat3d grad_v = Mat3d::Zero();
+    grad_v(0, 1) = inertial * std::sqrt(p / mc.density) / mc.grain_diameter;
+    Mat3d U, V, F = withStrain(rng, eps);
+    Vec3d s;
+    svd3(F, U, s, V);
+    ASSERT_TRUE(mc.projectSvd(U, s, V, F, grad_v));
+    const double mu_s = std::tan(25 * M_PI / 180);
+    const double mu = mu_s + (mc.mu_2 - mu_s) * inertial / (mc.i_0 + inertial);
+    const Vec3d t = sortedStress(mc, F);
+    EXPECT_NEAR(mobilisedSin(t), mu / std::sqrt(1 + mu * mu), 1e-9) << "I " << inertial;
+    if (inertial == 0.0) {
+      Mat3d G = withStrain(rng, eps);
+      rest.project(G);
+      EXPECT_NEAR(mobilisedSin(sortedStress(rest, G)), mobilisedSin(t), 1e-12);
+    }
+  }
+}
+
 TEST(MohrCoulomb, MadeFromItsDescription) {
   MaterialDesc d;
   d.model = MaterialModel::MohrCoulomb;

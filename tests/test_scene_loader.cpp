@@ -640,6 +640,16 @@ TEST_F(SceneLoaderTest, MohrCoulombSandTakesFrictionCohesionAndDilatancy) {
   // Dilatancy beyond friction is refused, with the range it had.
   j["materials"]["sand"]["dilatancy_angle_deg"] = 40;
   EXPECT_TRUE(contains(error(j), {"materials.sand.dilatancy_angle_deg", "[0, 32]", "got 40"}));
+  // mu(I): the grain size turns it on; its other keys alone are refused.
+  j["materials"]["sand"]["dilatancy_angle_deg"] = 4;
+  j["materials"]["sand"]["grain_diameter"] = 0.001;
+  const MaterialDesc rated = load(j).materials[1];
+  EXPECT_EQ(rated.grain_diameter, 0.001);
+  EXPECT_NEAR(rated.friction_angle_max_deg, 32 + 11.86, 1e-12);
+  EXPECT_EQ(rated.inertial_number_i0, 0.279);
+  j["materials"]["sand"].erase("grain_diameter");
+  j["materials"]["sand"]["friction_angle_max_deg"] = 40;
+  EXPECT_TRUE(contains(error(j), {"materials.sand.friction_angle_max_deg", "grain_diameter"}));
   // Drucker-Prager has no dilatancy: the message names the model that does.
   j = exampleScene();
   j["materials"]["sand"]["dilatancy_angle_deg"] = 4;

@@ -33,10 +33,18 @@ Material makeMaterial(const MaterialDesc& d) {
       sand.cohesion_strain = float(dp.cohesion_strain);
       return sand;
     }
-    case MaterialModel::MohrCoulomb:
-      return MohrCoulomb<float>(float(d.youngs_modulus), float(d.poisson_ratio),
-                                float(d.friction_angle_deg), float(d.cohesion),
-                                float(d.dilatancy_angle_deg));
+    case MaterialModel::MohrCoulomb: {
+      MohrCoulomb<float> sand(float(d.youngs_modulus), float(d.poisson_ratio),
+                              float(d.friction_angle_deg), float(d.cohesion),
+                              float(d.dilatancy_angle_deg));
+      if (d.grain_diameter > 0) {
+        sand.grain_diameter = float(d.grain_diameter);
+        sand.density = float(d.density);
+        sand.i_0 = float(d.inertial_number_i0);
+        sand.mu_2 = float(std::tan(d.friction_angle_max_deg * M_PI / 180.0));
+      }
+      return sand;
+    }
     case MaterialModel::Water:
       return Water<float>{float(d.bulk_modulus), float(d.gamma), float(d.viscosity)};
   }
@@ -126,6 +134,20 @@ void projectAndKirchhoffBatch(const DruckerPrager<float>& m, int n, Mat3f* F, Ma
 
 void projectAndKirchhoffBatch(const MohrCoulomb<float>& m, int n, Mat3f* F, Mat3f* tau) {
   henckyPlasticBatch(m, n, F, tau);
+}
+
+void projectAndKirchhoffBatch(const MohrCoulomb<float>& m, int n, Mat3f* F, const Mat3f* grad_v,
+                              Mat3f* tau) {
+  Mat3f U[kChunk], V[kChunk];
+  Vec3f s[kChunk];
+  for (int b = 0; b < n; b += kChunk) {
+    const int count = std::min(kChunk, n - b);
+    svd3Batch(count, F + b, U, s, V);
+    for (int i = 0; i < count; ++i) {
+      m.projectSvd(U[i], s[i], V[i], F[b + i], grad_v[b + i]);
+      tau[b + i] = m.elastic.kirchhoffFromSvd(U[i], s[i]);
+    }
+  }
 }
 
 }  // namespace triad

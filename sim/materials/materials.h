@@ -92,5 +92,8 @@ void projectAndKirchhoffBatch(const Snow<float>& m, int n, Mat3f* Fe, float* Jp,
 // tau[i] = m.projectAndKirchhoff(F[i]); F is updated.
 void projectAndKirchhoffBatch(const DruckerPrager<float>& m, int n, Mat3f* F, Mat3f* tau);
 void projectAndKirchhoffBatch(const MohrCoulomb<float>& m, int n, Mat3f* F, Mat3f* tau);
+// The same under mu(I): grad_v[i] is particle i's velocity gradient.
+void projectAndKirchhoffBatch(const MohrCoulomb<float>& m, int n, Mat3f* F, const Mat3f* grad_v,
+                              Mat3f* tau);
 
 }  // namespace triad

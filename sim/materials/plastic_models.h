@@ -207,6 +207,19 @@ struct MohrCoulomb : HenckyPlastic<T, MohrCoulomb<T>> {
   using HenckyPlastic<T, MohrCoulomb<T>>::elastic;
   T sin_phi = 0, cos_phi = 1, sin_psi = 0;
   T cohesion = 0;  // c, pascals
+  // Rate dependence, mu(I) (Jop, Forterre & Pouliquen 2006), on when
+  // grain_diameter > 0: the friction coefficient tan(phi) rises from
+  // mu_s = tan(phi) at rest to mu_2 as the inertial number
+  // I = gamma_dot d / sqrt(p / rho) grows, mu = mu_s + (mu_2 - mu_s) I / (I_0 + I).
+  T mu_2 = 0;
+  T i_0 = T(0.279);
+  T grain_diameter = 0;  // d, m
+  T density = 0;         // rho, kg/m^3
+
+  // The friction angle at which one particle's state yields.
+  struct Friction {
+    T sin_phi, cos_phi;
+  };
 
   MohrCoulomb() = default;
   MohrCoulomb(T youngs_modulus, T poisson_ratio, T friction_angle_deg, T cohesion_pa,
@@ -219,11 +232,34 @@ struct MohrCoulomb : HenckyPlastic<T, MohrCoulomb<T>> {
     sin_psi = std::sin(dilatancy_angle_deg * rad);
   }
 
+  bool rateDependent() const { return grain_diameter > T(0); }
+  Friction staticFriction() const { return {sin_phi, cos_phi}; }
+
+  // The friction of a state of principal stresses tau under the velocity
+  // gradient grad_v: mu(I), with the shear rate |gamma_dot| = sqrt(2) |dev
+  // D| (D the rate of deformation) and the pressure p = -mean(tau). A state
+  // without pressure has no finite I: it takes mu_2.
+  Friction frictionAt(const Vec3<T>& tau, const Mat3<T>& grad_v) const {
+    if (!rateDependent()) return staticFriction();
+    const Mat3<T> D = T(0.5) * (grad_v + grad_v.transpose());
+    const T rate = std::sqrt(T(2)) * (D - D.trace() / T(3) * Mat3<T>::Identity()).norm();
+    const T p = -tau.mean();
+    const T mu_s = sin_phi / cos_phi;
+    T mu = mu_2;
+    if (p > T(0)) {
+      const T inertial = rate * grain_diameter / std::sqrt(p / density);
+      mu = mu_s + (mu_2 - mu_s) * inertial / (i_0 + inertial);
+    }
+    const T r = T(1) / std::sqrt(T(1) + mu * mu);
+    return {mu * r, r};
+  }
+
   // Yield function of principal stresses in any order, in pascals: <= 0
   // inside, 0 on the surface.
-  T yieldOfStress(const Vec3<T>& tau) const {
+  T yieldOfStress(const Vec3<T>& tau) const { return yieldOfStress(tau, staticFriction()); }
+  T yieldOfStress(const Vec3<T>& tau, const Friction& fr) const {
     const T hi = tau.maxCoeff(), lo = tau.minCoeff();
-    return (hi - lo) + (hi + lo) * sin_phi - T(2) * cohesion * cos_phi;
+    return (hi - lo) + (hi + lo) * fr.sin_phi - T(2) * cohesion * fr.cos_phi;
   }
 
   T yield(const Mat3<T>& F) const {
@@ -236,16 +272,28 @@ struct MohrCoulomb : HenckyPlastic<T, MohrCoulomb<T>> {
   // The return mapping on a decomposition of the elastic F (project() and
   // projectAndKirchhoff() come from HenckyPlastic).
   bool projectSvd(const Mat3<T>& U, Vec3<T>& s, const Mat3<T>& V, Mat3<T>& F) const {
-    const Vec3<T> eps = StvkHencky<T>::henckyStrain(s);
-    const Vec3<T> tau = elastic.principalKirchhoff(eps);
-    if (yieldOfStress(tau) <= T(0)) return false;
+    const Vec3<T> tau = elastic.principalKirchhoff(StvkHencky<T>::henckyStrain(s));
+    return projectSvd(U, s, V, F, tau, staticFriction());
+  }
+
+  // The same under mu(I), for a particle deforming at grad_v.
+  bool projectSvd(const Mat3<T>& U, Vec3<T>& s, const Mat3<T>& V, Mat3<T>& F,
+                  const Mat3<T>& grad_v) const {
+    const Vec3<T> tau = elastic.principalKirchhoff(StvkHencky<T>::henckyStrain(s));
+    return projectSvd(U, s, V, F, tau, frictionAt(tau, grad_v));
+  }
+
+  // The body of both: tau the trial principal stresses of s.
+  bool projectSvd(const Mat3<T>& U, Vec3<T>& s, const Mat3<T>& V, Mat3<T>& F,
+                  const Vec3<T>& tau, const Friction& fr) const {
+    if (yieldOfStress(tau, fr) <= T(0)) return false;
     // Sort the principal stresses: tau(o[0]) >= tau(o[1]) >= tau(o[2]).
     int o[3] = {0, 1, 2};
     if (tau(o[0]) < tau(o[1])) std::swap(o[0], o[1]);
     if (tau(o[1]) < tau(o[2])) std::swap(o[1], o[2]);
     if (tau(o[0]) < tau(o[1])) std::swap(o[0], o[1]);
     const Vec3<T> sorted(tau(o[0]), tau(o[1]), tau(o[2]));
-    const Vec3<T> ret = returnSorted(sorted);
+    const Vec3<T> ret = returnSorted(sorted, fr);
     // Back to log strains: eps = (tau - lambda tr(tau) / (3 lambda + 2 mu)) / (2 mu).
     const T mean = elastic.lambda * ret.sum() / (T(3) * elastic.lambda + T(2) * elastic.mu);
     for (int i = 0; i < 3; ++i) s(o[i]) = std::exp((ret(i) - mean) / (T(2) * elastic.mu));
@@ -254,12 +302,14 @@ struct MohrCoulomb : HenckyPlastic<T, MohrCoulomb<T>> {
   }
 
   // The stress a sorted trial state outside the surface returns to.
-  Vec3<T> returnSorted(const Vec3<T>& t) const {
-    const T k = T(2) * cohesion * cos_phi;
+  Vec3<T> returnSorted(const Vec3<T>& t) const { return returnSorted(t, staticFriction()); }
+  Vec3<T> returnSorted(const Vec3<T>& t, const Friction& fr) const {
+    const T sp = fr.sin_phi, cp = fr.cos_phi;
+    const T k = T(2) * cohesion * cp;
     // Gradients of the yield planes and flow directions, in sorted
     // principal space: the main plane (1, 3), the edge planes (1, 2) and
     // (2, 3).
-    const Vec3<T> df_main(T(1) + sin_phi, T(0), -(T(1) - sin_phi));
+    const Vec3<T> df_main(T(1) + sp, T(0), -(T(1) - sp));
     const Vec3<T> dg_main(T(1) + sin_psi, T(0), -(T(1) - sin_psi));
     const T f_main = df_main.dot(t) - k;
     const Vec3<T> dn_main = stiffness(dg_main);
@@ -272,8 +322,8 @@ struct MohrCoulomb : HenckyPlastic<T, MohrCoulomb<T>> {
     // both active (either of the two largest is the maximum), on the second
     // (1, 3) and (1, 2).
     const bool upper = main(1) > main(0);
-    const Vec3<T> df_edge = upper ? Vec3<T>(T(0), T(1) + sin_phi, -(T(1) - sin_phi))
-                                  : Vec3<T>(T(1) + sin_phi, -(T(1) - sin_phi), T(0));
+    const Vec3<T> df_edge = upper ? Vec3<T>(T(0), T(1) + sp, -(T(1) - sp))
+                                  : Vec3<T>(T(1) + sp, -(T(1) - sp), T(0));
     const Vec3<T> dg_edge = upper ? Vec3<T>(T(0), T(1) + sin_psi, -(T(1) - sin_psi))
                                   : Vec3<T>(T(1) + sin_psi, -(T(1) - sin_psi), T(0));
     const Vec3<T> dn_edge = stiffness(dg_edge);
@@ -296,7 +346,7 @@ struct MohrCoulomb : HenckyPlastic<T, MohrCoulomb<T>> {
     }
     // The apex: hydrostatic tension c cot(phi) (Tresca has none; its
     // edges hold every state, so this is reached only through round-off).
-    const T apex = sin_phi > T(1e-6) ? cohesion * cos_phi / sin_phi : t.mean();
+    const T apex = sp > T(1e-6) ? cohesion * cp / sp : t.mean();
     return Vec3<T>::Constant(apex);
   }
 

@@ -36,9 +36,14 @@ void stressChunk(const M& model, ParticleSet& set, size_t b, int n, Mat3f* tau) 
     kirchhoffBatch(model, n, &set.F[b], tau);
   } else if constexpr (std::is_same_v<M, Snow<float>>) {
     projectAndKirchhoffBatch(model, n, &set.F[b], &set.J[b], tau);
-  } else if constexpr (std::is_same_v<M, DruckerPrager<float>> ||
-                       std::is_same_v<M, MohrCoulomb<float>>) {
+  } else if constexpr (std::is_same_v<M, DruckerPrager<float>>) {
     projectAndKirchhoffBatch(model, n, &set.F[b], tau);
+  } else if constexpr (std::is_same_v<M, MohrCoulomb<float>>) {
+    // Between G2P and this pass C holds the velocity gradient, which mu(I) reads.
+    if (model.rateDependent())
+      projectAndKirchhoffBatch(model, n, &set.F[b], &set.C[b], tau);
+    else
+      projectAndKirchhoffBatch(model, n, &set.F[b], tau);
   } else if constexpr (std::is_same_v<M, Water<float>>) {
     for (int i = 0; i < n; ++i) tau[i] = model.kirchhoff(set.J[b + i], set.C[b + i]);
   } else {
