@@ -255,14 +255,15 @@ MaterialDesc parseMaterial(const std::string& name, const ParamDict& d) {
     m.cohesion = d.getDouble("cohesion", m.cohesion, Range::nonNegative());
   }
   if (m.model == MaterialModel::MohrCoulomb) {
-    // Dilatancy beyond friction would make the flow create energy.
+    // Granular media dilate at angles below their friction angle.
     m.dilatancy_angle_deg = d.getDouble("dilatancy_angle_deg", m.dilatancy_angle_deg,
                                         Range::closed(0, m.friction_angle_deg));
     // mu(I): the grain size turns it on; the defaults are Jop et al.'s
     // glass beads (20.9 to 32.8 degrees, I_0 = 0.279) shifted to this angle.
     m.grain_diameter = d.getDouble("grain_diameter", 0.0, Range::nonNegative());
     m.friction_angle_max_deg =
-        d.getDouble("friction_angle_max_deg", std::min(m.friction_angle_deg + 11.86, 89.0),
+        d.getDouble("friction_angle_max_deg",
+                    std::min(m.friction_angle_deg + 11.86, 0.5 * (m.friction_angle_deg + 90)),
                     Range::closedOpen(m.friction_angle_deg, 90));
     m.inertial_number_i0 =
         d.getDouble("inertial_number_i0", m.inertial_number_i0, Range::positive());

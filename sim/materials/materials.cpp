@@ -3,6 +3,7 @@
 #include "sim/materials/materials.h"
 
 #include <cmath>
+#include <type_traits>
 
 #include "sim/svd3.h"
 
@@ -111,16 +112,25 @@ void projectAndKirchhoffBatch(const Snow<float>& m, int n, Mat3f* Fe, float* Jp,
 
 namespace {
 
-// The Hencky-strain sands: batched SVDs, then each particle's return and stress.
+// The Hencky-strain sands: batched SVDs, then each particle's return and
+// stress; with grad_v (Mohr-Coulomb's mu(I)) the return reads each
+// particle's velocity gradient.
 template <class M>
-void henckyPlasticBatch(const M& m, int n, Mat3f* F, Mat3f* tau) {
+void henckyPlasticBatch(const M& m, int n, Mat3f* F, const Mat3f* grad_v, Mat3f* tau) {
   Mat3f U[kChunk], V[kChunk];
   Vec3f s[kChunk];
   for (int b = 0; b < n; b += kChunk) {
     const int count = std::min(kChunk, n - b);
     svd3Batch(count, F + b, U, s, V);
     for (int i = 0; i < count; ++i) {
-      m.projectSvd(U[i], s[i], V[i], F[b + i]);
+      if constexpr (std::is_same_v<M, MohrCoulomb<float>>) {
+        if (grad_v)
+          m.projectSvd(U[i], s[i], V[i], F[b + i], grad_v[b + i]);
+        else
+          m.projectSvd(U[i], s[i], V[i], F[b + i]);
+      } else {
+        m.projectSvd(U[i], s[i], V[i], F[b + i]);
+      }
       tau[b + i] = m.elastic.kirchhoffFromSvd(U[i], s[i]);
     }
   }
@@ -129,25 +139,16 @@ void henckyPlasticBatch(const M& m, int n, Mat3f* F, Mat3f* tau) {
 }  // namespace
 
 void projectAndKirchhoffBatch(const DruckerPrager<float>& m, int n, Mat3f* F, Mat3f* tau) {
-  henckyPlasticBatch(m, n, F, tau);
+  henckyPlasticBatch(m, n, F, nullptr, tau);
 }
 
 void projectAndKirchhoffBatch(const MohrCoulomb<float>& m, int n, Mat3f* F, Mat3f* tau) {
-  henckyPlasticBatch(m, n, F, tau);
+  henckyPlasticBatch(m, n, F, nullptr, tau);
 }
 
 void projectAndKirchhoffBatch(const MohrCoulomb<float>& m, int n, Mat3f* F, const Mat3f* grad_v,
                               Mat3f* tau) {
-  Mat3f U[kChunk], V[kChunk];
-  Vec3f s[kChunk];
-  for (int b = 0; b < n; b += kChunk) {
-    const int count = std::min(kChunk, n - b);
-    svd3Batch(count, F + b, U, s, V);
-    for (int i = 0; i < count; ++i) {
-      m.projectSvd(U[i], s[i], V[i], F[b + i], grad_v[b + i]);
-      tau[b + i] = m.elastic.kirchhoffFromSvd(U[i], s[i]);
-    }
-  }
+  henckyPlasticBatch(m, n, F, grad_v, tau);
 }
 
 }  // namespace triad
