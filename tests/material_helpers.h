@@ -4,8 +4,8 @@
 #include <cmath>
 #include <random>
 
-#include <Eigen/Geometry>
 #include <gtest/gtest.h>
+#include <Eigen/Geometry>
 
 #include "sim/math.h"
 #include "sim/svd3.h"

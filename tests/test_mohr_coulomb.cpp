@@ -28,7 +28,9 @@ Vec3d sortedStress(const MohrCoulomb<double>& mc, const Mat3d& F) {
 }
 
 // Mobilised friction of a cohesionless state: sin(phi_m) = (t1 - t3) / -(t1 + t3).
-double mobilisedSin(const Vec3d& t) { return (t(0) - t(2)) / -(t(0) + t(2)); }
+double mobilisedSin(const Vec3d& t) {
+  return (t(0) - t(2)) / -(t(0) + t(2));
+}
 
 // Which part of the surface a returned stress lies on (2: main plane,
 // 1: an edge, 0: the apex), from how many distinct principal values it has.

@@ -188,7 +188,6 @@ struct DruckerPrager : HenckyPlastic<T, DruckerPrager<T>> {
   }
 };
 
-
 // Mohr-Coulomb sand on the same Hencky-strain StVK elasticity: the friction
 // angle means one strength in every stress state (triaxial compression and
 // extension, plane strain), where Drucker-Prager's cone matches it in one.
@@ -284,8 +283,8 @@ struct MohrCoulomb : HenckyPlastic<T, MohrCoulomb<T>> {
   }
 
   // The body of both: tau the trial principal stresses of s.
-  bool projectSvd(const Mat3<T>& U, Vec3<T>& s, const Mat3<T>& V, Mat3<T>& F,
-                  const Vec3<T>& tau, const Friction& fr) const {
+  bool projectSvd(const Mat3<T>& U, Vec3<T>& s, const Mat3<T>& V, Mat3<T>& F, const Vec3<T>& tau,
+                  const Friction& fr) const {
     if (yieldOfStress(tau, fr) <= T(0)) return false;
     // Sort the principal stresses: tau(o[0]) >= tau(o[1]) >= tau(o[2]).
     int o[3] = {0, 1, 2};
@@ -322,8 +321,8 @@ struct MohrCoulomb : HenckyPlastic<T, MohrCoulomb<T>> {
     // both active (either of the two largest is the maximum), on the second
     // (1, 3) and (1, 2).
     const bool upper = main(1) > main(0);
-    const Vec3<T> df_edge = upper ? Vec3<T>(T(0), T(1) + sp, -(T(1) - sp))
-                                  : Vec3<T>(T(1) + sp, -(T(1) - sp), T(0));
+    const Vec3<T> df_edge =
+        upper ? Vec3<T>(T(0), T(1) + sp, -(T(1) - sp)) : Vec3<T>(T(1) + sp, -(T(1) - sp), T(0));
     const Vec3<T> dg_edge = upper ? Vec3<T>(T(0), T(1) + sin_psi, -(T(1) - sin_psi))
                                   : Vec3<T>(T(1) + sin_psi, -(T(1) - sin_psi), T(0));
     const Vec3<T> dn_edge = stiffness(dg_edge);
