@@ -229,6 +229,26 @@ TEST(MohrCoulomb, ProjectAndKirchhoffEqualsTheTwoCallsAndTheFloatBatch) {
     const float noise = 2e-6f * (2 * sand.elastic.mu + 3 * sand.elastic.lambda);
     EXPECT_LT((tau[i] - t).norm(), 1e-4f * t.norm() + noise);
   }
+  // Under mu(I) the batch reads each particle's velocity gradient: a fast
+  // shear raises the friction, so fewer states move, and those less.
+  MohrCoulomb<float> rated = sand;
+  rated.grain_diameter = 0.01f;
+  rated.density = 1600.0f;
+  rated.mu_2 = std::tan(0.7f);
+  std::vector<Mat3f> grad_v(n, Mat3f::Zero()), Fr = F;
+  for (Mat3f& g : grad_v) g(0, 1) = 50.0f;
+  projectAndKirchhoffBatch(rated, n, Fr.data(), grad_v.data(), tau.data());
+  int differ = 0;
+  for (int i = 0; i < n; ++i) {
+    Mat3f a = F[i];
+    Vec3f sv;
+    Mat3f U, V;
+    svd3(a, U, sv, V);
+    rated.projectSvd(U, sv, V, a, grad_v[i]);
+    EXPECT_LT((Fr[i] - a).norm(), 1e-5f);
+    differ += (Fr[i] - Fs[i]).norm() > 1e-4f;
+  }
+  EXPECT_GT(differ, 10);
 }
 
 TEST(MohrCoulomb, RateDependentFrictionFollowsMuOfI) {
