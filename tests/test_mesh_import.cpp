@@ -550,6 +550,40 @@ TEST_F(MeshImport, BrokenFilesAreInputErrors) {
                    "invalid glTF: accessor pos reaches byte 37 of its buffer view, which has 36");
   // The same file, in range, loads: one triangle.
   EXPECT_EQ(loadMeshFile(writeText("in_range.gltf", gltf1(indexed, 0))).input_triangles, 1u);
+  // The node hierarchy must be trees: assimp copies a node for each
+  // reference to it, so a chain of nodes that each list the next one twice
+  // grew as 2^n (20 of them took 3.6 GB and 52 s).
+  auto gltf2 = [](const std::string& nodes, const std::string& roots) {
+    return R"({"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": )" + roots +
+           R"(}], "nodes": )" + nodes + R"(,
+               "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+               "buffers": [{"byteLength": 36, "uri": "data:application/octet-stream;base64,)"
+           R"(AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA"}],
+               "bufferViews": [{"buffer": 0, "byteLength": 36}],
+               "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                              "min": [0, 0, 0], "max": [1, 1, 0]}]})";
+  };
+  expectInputError(writeText("dag.gltf", gltf2(R"([{"children": [1, 1]}, {"children": [2, 2]},
+                                                   {"mesh": 0}])", "[0]")),
+                   "invalid glTF: node 1 is a child of both node 0 and node 0");
+  expectInputError(writeText("shared.gltf", gltf2(R"([{"children": [2]}, {"children": [2]},
+                                                      {"mesh": 0}])", "[0, 1]")),
+                   "invalid glTF: node 2 is a child of both node 0 and node 1");
+  expectInputError(writeText("cycle.gltf", gltf2(R"([{"mesh": 0}, {"children": [2]},
+                                                     {"children": [1]}])", "[0]")),
+                   "is its own ancestor (a cycle of nodes)");
+  expectInputError(writeText("inner_root.gltf", gltf2(R"([{"children": [1]}, {"mesh": 0}])", "[0, 1]")),
+                   "invalid glTF: scene 0 lists node 1 as a root, but it is a child of node 0");
+  expectInputError(writeText("twice_root.gltf", gltf2(R"([{"mesh": 0}])", "[0, 0]")),
+                   "invalid glTF: scene 0 lists node 0 twice");
+  expectInputError(writeText("no_child.gltf", gltf2(R"([{"children": [5]}, {"mesh": 0}])", "[0]")),
+                   "invalid glTF: node 0 has a child that does not exist: 5");
+  // A tree of the same nodes loads, each mesh instance once.
+  EXPECT_EQ(loadMeshFile(writeText("tree.gltf", gltf2(R"([{"children": [1, 2]}, {"mesh": 0},
+                                                          {"mesh": 0, "translation": [2, 0, 0]}])",
+                                                      "[0]")))
+                .input_triangles,
+            2u);
 }
 
 // assimp's internal checks (ai_assert, on in Debian's build) used to abort
