@@ -15,7 +15,15 @@
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size < 1) return 0;
   static const char* kExt[] = {".obj", ".stl", ".ply", ".gltf"};
-  const std::string path = "/tmp/triad_fuzz_mesh_" + std::to_string(getpid()) + kExt[data[0] % 4];
+  // One directory per process, its name always as long (mkdtemp): a path
+  // whose length varied with the process id varied the loops over it, so
+  // the coverage, so the inputs a fixed seed explores.
+  static const std::string dir = [] {
+    char tmpl[] = "/tmp/triad_fuzz_mesh_XXXXXX";
+    if (!mkdtemp(tmpl)) std::abort();
+    return std::string(tmpl);
+  }();
+  const std::string path = dir + "/mesh" + kExt[data[0] % 4];
   std::FILE* f = std::fopen(path.c_str(), "wb");
   if (!f) std::abort();
   std::fwrite(data + 1, 1, size - 1, f);
