@@ -176,8 +176,9 @@ void checkPly(const std::string& path) {
         auto value = [&](const std::string& type) -> const std::string& {
           if (w == words.size()) bad(e, k, where + "fewer values than its properties take");
           if (!number(words[w], integerType(type)))
-            bad(e, k, where + "\"" + words[w] + "\" is not " +
-                          (integerType(type) ? "an integer" : "a number"));
+            bad(e, k,
+                where + "\"" + words[w] + "\" is not " +
+                    (integerType(type) ? "an integer" : "a number"));
           return words[w++];
         };
         for (const PlyProperty& p : e.properties) {
@@ -188,8 +189,9 @@ void checkPly(const std::string& path) {
           const std::string& t = value(p.count_type);
           const size_t left = words.size() - w;
           if (t[0] == '-' || t.size() > 19 || std::stoull(t) > left)
-            bad(e, k, "a list count of \"" + t + "\", more than its line holds (" + where +
-                          std::to_string(left) + " values left)");
+            bad(e, k,
+                "a list count of \"" + t + "\", more than its line holds (" + where +
+                    std::to_string(left) + " values left)");
           for (unsigned long long m = std::stoull(t); m > 0; --m) value(p.item_type);
         }
         if (w != words.size()) bad(e, k, where + "more values than its properties take");
