@@ -14,7 +14,8 @@ case "$kind" in
   sanitize) dir=build-sanitize; flags=(-DCMAKE_BUILD_TYPE=RelWithDebInfo "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g1" -DTRIAD_SANITIZE=ON) ;;
   *) echo "usage: $0 [release|sanitize] [targets...]" >&2; exit 2 ;;
 esac
-cmake -S . -B "$dir" -G Ninja "${flags[@]}" >/dev/null
+# TRIAD_BENCH=OFF leaves out bench/ (the test script: no test runs them).
+cmake -S . -B "$dir" -G Ninja "${flags[@]}" -DTRIAD_BENCH="${TRIAD_BENCH:-ON}" >/dev/null
 jobs=$(nproc)
 if [ $# -gt 0 ]; then
   cmake --build "$dir" -j "$jobs" --target "$@"
