@@ -399,17 +399,23 @@ void Solver::predictSolids(double dt) {
       for (size_t i = 0; i < fem.nodes(); ++i) fem.v[i] += dt * (fem_force_[i] / fem.mass[i] + g);
     }
     points_.addSolid(0.0f, e.friction, SolidKind::Moving, 0.0);
-    for (size_t i = 0; i < fem.nodes(); ++i) {
-      points_.x.push_back(fem.x[i].cast<float>());
-      points_.v.push_back(fem.v[i].cast<float>());
-      points_.n.push_back(e.normal(i).cast<float>());
-      // Each node carries its distance at rest along its normal now, as a
-      // rigid sample does: the distance's normal and the contact reach
-      // apply to elastic solids too (with the summed normals a jelly
-      // dropped on sand came to rest 0.35 dx off it). The collision gives
-      // them no gap.
-      points_.phi.push_back(e.phi0[i]);
-      points_.point_mass.push_back(float(fem.mass[i]));
+    // Each node carries its distance at rest along its normal now, as a
+    // rigid sample does: the distance's normal and the contact reach apply
+    // to elastic solids too (with the summed normals a jelly dropped on sand
+    // came to rest 0.35 dx off it). The collision gives them no gap.
+    const size_t first = points_.size(), nodes = fem.nodes();
+    for (auto* a : {&points_.x, &points_.v, &points_.n}) a->resize(first + nodes);
+    points_.phi.resize(first + nodes);
+    points_.point_mass.resize(first + nodes);
+    // The deformed normals (a 3x3 inverse each) are most of this loop.
+#pragma omp parallel for schedule(static) if (nodes > 2048)
+    for (int64_t i = 0; i < int64_t(nodes); ++i) {
+      const size_t q = first + size_t(i);
+      points_.x[q] = fem.x[size_t(i)].cast<float>();
+      points_.v[q] = fem.v[size_t(i)].cast<float>();
+      points_.n[q] = e.normal(size_t(i)).cast<float>();
+      points_.phi[q] = e.phi0[size_t(i)];
+      points_.point_mass[q] = float(fem.mass[size_t(i)]);
     }
   }
 }

@@ -36,7 +36,7 @@ void GridCoupling::measureGaps(const std::vector<ParticleSet>& sets, const GridL
     const std::vector<uint32_t>& blocks = layout.colour_blocks[size_t(colour)];
     // Blocks of one colour share no node: the mins need no atomics, and
     // being mins they are the same for any thread count.
-#pragma omp parallel for schedule(dynamic, 8) if (blocks.size() > 64)
+#pragma omp parallel for schedule(dynamic, 1) if (blocks.size() > 1)
     for (int64_t k = 0; k < int64_t(blocks.size()); ++k) {
       const uint32_t pb = blocks[size_t(k)];
       std::array<int32_t, 8> slot;

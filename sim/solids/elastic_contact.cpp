@@ -1,5 +1,7 @@
 #include "sim/solids/elastic_contact.h"
 
+#include <omp.h>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -329,19 +331,37 @@ size_t pushParticlesOut(ElasticSolid& b, std::vector<ParticleSet>& sets, double 
   FemBody& fb = b.fem;
   const EndOfStep end(fb, dt);
   size_t moved = 0;
+  std::vector<std::pair<uint32_t, Penetration>> found;
   for (ParticleSet& set : sets) {
     const double mp = double(set.mass);
-    for (size_t p = 0; p < set.size(); ++p) {
+    // Found in parallel (each particle on its own, against the solid's
+    // velocities before this pass), then applied in particle order, each
+    // against the velocities the ones before it left: the solid's nodes
+    // take the same sums on any number of threads.
+    found.clear();
+    const int64_t count = int64_t(set.size());
+    const int chunks = count > 8192 ? omp_get_max_threads() : 1;
+    std::vector<std::vector<std::pair<uint32_t, Penetration>>> part(static_cast<size_t>(chunks));
+#pragma omp parallel for schedule(static, 1) if (chunks > 1)
+    for (int c = 0; c < chunks; ++c)
+      for (int64_t p = count * c / chunks; p < count * (c + 1) / chunks; ++p) {
+        Penetration pen;
+        if (findPenetration(b, end, set.x[size_t(p)].cast<double>(),
+                            set.v[size_t(p)].cast<double>(), Vec3d::Zero(), dt, pen))
+          part[size_t(c)].emplace_back(uint32_t(p), pen);
+      }
+    for (const auto& hits : part) found.insert(found.end(), hits.begin(), hits.end());
+    for (const auto& [p, pen] : found) {
       const Vec3d x = set.x[p].cast<double>(), v = set.v[p].cast<double>();
-      Penetration pen;
-      if (!findPenetration(b, end, x, v, Vec3d::Zero(), dt, pen)) continue;
       // Onto the face; the approach velocity goes to the solid's nodes
       // under the particle, by barycentric weight.
       set.x[p] = (x - pen.depth * pen.normal).cast<float>();
-      const double vn = pen.normal.dot(v - pen.vb);
+      const auto& n = fb.mesh.tets[size_t(pen.tet)];
+      Vec3d vb = Vec3d::Zero();
+      for (int k = 0; k < 4; ++k) vb += pen.w[size_t(k)] * fb.v[size_t(n[k])];
+      const double vn = pen.normal.dot(v - vb);
       if (vn < 0.0) {
         set.v[p] = (v - vn * pen.normal).cast<float>();
-        const auto& n = fb.mesh.tets[size_t(pen.tet)];
         for (int k = 0; k < 4; ++k)
           if (!fb.pinned[size_t(n[k])])
             fb.v[size_t(n[k])] += (pen.w[size_t(k)] * mp * vn / fb.mass[size_t(n[k])]) * pen.normal;
