@@ -461,7 +461,8 @@ Mat3<T> polarRotation(const Mat3<T>& F) {
         cof.col(1) = X.col(2).cross(X.col(0));
         cof.col(2) = X.col(0).cross(X.col(1));
         const Mat3<T> Xinv_t = cof * (1.0 / X.col(0).dot(cof.col(0)));
-        const double g = scaled ? std::sqrt(std::sqrt(Xinv_t.squaredNorm() / X.squaredNorm())) : 1.0;
+        const double g =
+            scaled ? std::sqrt(std::sqrt(Xinv_t.squaredNorm() / X.squaredNorm())) : 1.0;
         const Mat3<T> next = (0.5 * g) * X + (0.5 / g) * Xinv_t;
         const double change2 = (next - X).squaredNorm();
         X = next;

@@ -115,9 +115,11 @@ TEST(Cli, SameBytesForOneAndTwoThreadsWithAnElasticSolid) {
                           {"shape", test::box({0.22, 0.1, 0.22}, {0.34, 0.2, 0.34})},
                           {"velocity", {0, -2, 0}}});
   const std::string scene = test::writeScene(dir, j);
-  const Result one = triad(dir, "run " + scene + " --threads 1 --quiet --out " + (dir / "t1").string());
+  const Result one =
+      triad(dir, "run " + scene + " --threads 1 --quiet --out " + (dir / "t1").string());
   ASSERT_EQ(one.status, 0) << one.err;
-  const Result two = triad(dir, "run " + scene + " --threads 2 --quiet --out " + (dir / "t2").string());
+  const Result two =
+      triad(dir, "run " + scene + " --threads 2 --quiet --out " + (dir / "t2").string());
   ASSERT_EQ(two.status, 0) << two.err;
   for (const char* name : {"particles/particles.0003.ply", "bodies/block.0003.ply"}) {
     const std::string a = slurp(dir / "t1" / name), b = slurp(dir / "t2" / name);
