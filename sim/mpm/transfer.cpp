@@ -179,7 +179,7 @@ G2PStats gatherSet(ParticleSet& set, size_t s, const GridLayout& layout,
           // Everything read again below comes from registers, not from the
           // particle just stored: a wide load of C or x waited on its
           // stores (they cannot be forwarded to it), and with two threads
-          // that wait was a third of the gather (jelly 8.5 -> 10.1 M
+          // that wait was a third of the gather (jelly 8.3 -> 9.9 M
           // particle-substeps/s). Water's J update reads three floats,
           // which are forwarded, and its loop is faster as written below.
           const Mat3f C = c_scale * B;
