@@ -32,11 +32,16 @@ void GridCoupling::measureGaps(const std::vector<ParticleSet>& sets, const GridL
     return;
   }
   gap_.assign(nodes_.size(), kFar);
+  // One parallel region for the eight colours (a barrier between them): a
+  // region per colour cost a wake-up of the sleeping threads each.
+  size_t widest = 0;
+  for (const auto& c : layout.colour_blocks) widest = std::max(widest, c.size());
+#pragma omp parallel if (widest > 1)
   for (int colour = 0; colour < 8; ++colour) {
     const std::vector<uint32_t>& blocks = layout.colour_blocks[size_t(colour)];
     // Blocks of one colour share no node: the mins need no atomics, and
     // being mins they are the same for any thread count.
-#pragma omp parallel for schedule(dynamic, 1) if (blocks.size() > 1)
+#pragma omp for schedule(dynamic, 1)
     for (int64_t k = 0; k < int64_t(blocks.size()); ++k) {
       const uint32_t pb = blocks[size_t(k)];
       std::array<int32_t, 8> slot;

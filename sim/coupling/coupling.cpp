@@ -184,8 +184,12 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
 
   // Scatter colour by colour: base blocks of one colour reach disjoint nodes,
   // so each node's sum has one order for any thread count.
+  // One parallel region for the eight colours (a barrier between them).
+  size_t widest = 0;
+  for (const auto& c : colour_blocks_) widest = std::max(widest, c.size());
+#pragma omp parallel if (widest > 1)
   for (const std::vector<uint32_t>& colour : colour_blocks_) {
-#pragma omp parallel for schedule(dynamic, 1) if (colour.size() > 1)
+#pragma omp for schedule(dynamic, 1)
     for (int64_t k = 0; k < int64_t(colour.size()); ++k) {
       const PointBlock& blk = blocks_[colour[k]];
       for (uint32_t o = blk.first; o < blk.last; o += 3) {
