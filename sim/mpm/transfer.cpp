@@ -103,13 +103,15 @@ template <bool kFlip>
 void scatterAll(const std::vector<ParticleSet>& sets, const GridLayout& layout,
                 const TransferParams& p, std::vector<GridNode>& grid, std::vector<GridNode>* flip) {
   // Colours run one after another; blocks of one colour touch disjoint nodes,
-  // so each node's sum has the same order for any thread count.
-  for (int colour = 0; colour < 8; ++colour) {
-    const std::vector<uint32_t>& blocks = layout.colour_blocks[colour];
+  // so each node's sum has the same order for any thread count. One
+  // parallel region for all eight (a barrier between colours): a region
+  // per colour cost a wake-up of the sleeping threads each.
 #pragma omp parallel
-    {
-      HaloBuffer<4> buf;
-      HaloBuffer<4> fbuf;
+  {
+    HaloBuffer<4> buf;
+    HaloBuffer<4> fbuf;
+    for (int colour = 0; colour < 8; ++colour) {
+      const std::vector<uint32_t>& blocks = layout.colour_blocks[colour];
 #pragma omp for schedule(dynamic, 1)
       for (int64_t k = 0; k < static_cast<int64_t>(blocks.size()); ++k) {
         const size_t pb = blocks[k];
