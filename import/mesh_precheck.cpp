@@ -419,15 +419,20 @@ void checkGltfLayout(const std::string& path) {
              " (a node has one parent at most)");
     }
   });
-  // With one parent at most, the walk up from a node is a single path; a
-  // cycle is a walk longer than the nodes there are.
+  // With one parent at most, the walk up from a node is a single path: it
+  // ends at a root, at a node already known to reach one, or comes back to
+  // itself (a cycle). Each node is walked over once.
+  std::map<const json*, int> walked;  // 1: on the walk now, 2: reaches a root
   for (const auto& [node, name] : node_name) {
-    const json* at = node;
-    for (size_t steps = 0; at; ++steps) {
-      if (steps > node_name.size()) fail(name + " is its own ancestor (a cycle of nodes)");
+    std::vector<const json*> walk;
+    for (const json* at = node; at && walked[at] != 2;) {
+      if (walked[at] == 1) fail(node_name[at] + " is its own ancestor (a cycle of nodes)");
+      walked[at] = 1;
+      walk.push_back(at);
       const auto it = parent_of.find(at);
       at = it == parent_of.end() ? nullptr : it->second.node;
     }
+    for (const json* w : walk) walked[w] = 2;
   }
   each("scenes", [&](const json& s, const std::string& name) {
     std::map<const json*, int> listed;

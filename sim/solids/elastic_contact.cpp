@@ -331,14 +331,12 @@ size_t pushParticlesOut(ElasticSolid& b, std::vector<ParticleSet>& sets, double 
   FemBody& fb = b.fem;
   const EndOfStep end(fb, dt);
   size_t moved = 0;
-  std::vector<std::pair<uint32_t, Penetration>> found;
   for (ParticleSet& set : sets) {
     const double mp = double(set.mass);
     // Found in parallel (each particle on its own, against the solid's
     // velocities before this pass), then applied in particle order, each
     // against the velocities the ones before it left: the solid's nodes
     // take the same sums on any number of threads.
-    found.clear();
     const int64_t count = int64_t(set.size());
     const int chunks = count > 8192 ? omp_get_max_threads() : 1;
     std::vector<std::vector<std::pair<uint32_t, Penetration>>> part(static_cast<size_t>(chunks));
@@ -350,24 +348,25 @@ size_t pushParticlesOut(ElasticSolid& b, std::vector<ParticleSet>& sets, double 
                             set.v[size_t(p)].cast<double>(), Vec3d::Zero(), dt, pen))
           part[size_t(c)].emplace_back(uint32_t(p), pen);
       }
-    for (const auto& hits : part) found.insert(found.end(), hits.begin(), hits.end());
-    for (const auto& [p, pen] : found) {
-      const Vec3d x = set.x[p].cast<double>(), v = set.v[p].cast<double>();
-      // Onto the face; the approach velocity goes to the solid's nodes
-      // under the particle, by barycentric weight.
-      set.x[p] = (x - pen.depth * pen.normal).cast<float>();
-      const auto& n = fb.mesh.tets[size_t(pen.tet)];
-      Vec3d vb = Vec3d::Zero();
-      for (int k = 0; k < 4; ++k) vb += pen.w[size_t(k)] * fb.v[size_t(n[k])];
-      const double vn = pen.normal.dot(v - vb);
-      if (vn < 0.0) {
-        set.v[p] = (v - vn * pen.normal).cast<float>();
-        for (int k = 0; k < 4; ++k)
-          if (!fb.pinned[size_t(n[k])])
-            fb.v[size_t(n[k])] += (pen.w[size_t(k)] * mp * vn / fb.mass[size_t(n[k])]) * pen.normal;
+    for (const auto& hits : part)
+      for (const auto& [p, pen] : hits) {
+        const Vec3d x = set.x[p].cast<double>(), v = set.v[p].cast<double>();
+        // Onto the face; the approach velocity goes to the solid's nodes
+        // under the particle, by barycentric weight.
+        set.x[p] = (x - pen.depth * pen.normal).cast<float>();
+        const auto& n = fb.mesh.tets[size_t(pen.tet)];
+        Vec3d vb = Vec3d::Zero();
+        for (int k = 0; k < 4; ++k) vb += pen.w[size_t(k)] * fb.v[size_t(n[k])];
+        const double vn = pen.normal.dot(v - vb);
+        if (vn < 0.0) {
+          set.v[p] = (v - vn * pen.normal).cast<float>();
+          for (int k = 0; k < 4; ++k)
+            if (!fb.pinned[size_t(n[k])])
+              fb.v[size_t(n[k])] +=
+                  (pen.w[size_t(k)] * mp * vn / fb.mass[size_t(n[k])]) * pen.normal;
+        }
+        ++moved;
       }
-      ++moved;
-    }
   }
   return moved;
 }
