@@ -17,9 +17,7 @@ dam_break_front.csv and .png (the front Z against T at each dx, with both
 experiments), and experiments.md (the tables bench/RESULTS.md quotes).
 """
 import argparse
-import copy
 import csv
-import json
 import math
 import os
 import sys
@@ -55,7 +53,7 @@ def planar_scene(a, f):
     floor = V.box_of(s, "floor")["max"][1]
     L0 = max(0.1, 0.1 / a)
     H0 = a * L0
-    longest = max(1.2 * a, 1.9 * a ** (2.0 / 3.0))  # the larger of Lube's two laws
+    longest = V.law_bracket(V.PLANAR_FITS, "runout", a)[1]
     X = snap(L0 * (1 + 1.6 * longest) + 0.1, dx)
     Y = snap(floor + H0 + 0.06, dx)
     s["domain"].update(dx=dx, max=[X, Y, 4 * dx])
@@ -132,7 +130,7 @@ def run_collapses(geometry, aspects, factors, work_root, threads):
 
 
 def dam_break_series(factors, work_root, threads):
-    """The front Z(T) at each dx (the cache kept long enough to read it)."""
+    """The front Z(T) at each dx, read from the cache before it is removed."""
     base = V.load_scene("dam_break")
     curves, rows = [], []
     mt, mz, kt, kz = V.dam_break_reference()
@@ -140,13 +138,8 @@ def dam_break_series(factors, work_root, threads):
         var = dict(name="dx x%g" % f, axis="dx", dx_factor=f, **V.BASE)
         scene = V.apply_variant(base, var)
         work = os.path.join(work_root, "dam_break_dx%g" % f)
-        r = V.run_one("dam_break", scene, work, threads, keep=True)
-        out = os.path.join(work, "cache")
-        n, fps = scene["frames"]["count"], scene["frames"]["fps"]
-        a = V.box_of(scene, "column")["max"][0]
-        x0 = V.read_ply(V.ply_path(out, 0))["x"].max()
-        T = np.array([k / fps * math.sqrt(2 * V.G / a) for k in range(n + 1)])
-        Z = np.array([(V.read_ply(V.ply_path(out, k))["x"].max() - x0 + a) / a for k in range(n + 1)])
+        r = V.run_one("dam_break", scene, work, threads, inspect=V.dam_break_front)
+        T, Z = r["inspected"]
         errs = {}
         for name, t, z in (("mm", mt, mz), ("ko", kt, kz)):
             sel = (t > 0) & (t <= T[-1])
@@ -167,7 +160,6 @@ def dam_break_series(factors, work_root, threads):
               "(mean %+.1f%%); best delay dT %.2f -> RMS %.1f%%  %.0f s" % (
                   rows[-1]["dx"], 100 * errs["mm"][0], 100 * errs["mm"][1], 100 * errs["ko"][0],
                   100 * errs["ko"][1], best, 100 * shifted, r["wall_s"]), flush=True)
-        V.shutil.rmtree(out, ignore_errors=True)
     return rows, curves
 
 

@@ -23,6 +23,7 @@ python3-matplotlib) and a built build/app/triad.
 import argparse
 import copy
 import csv
+import functools
 import json
 import math
 import os
@@ -195,44 +196,57 @@ def measure_bar(scene, out):
 def scaling_law(name, quantity, a):
     """The fitted law c * a^p of data file `name` for `quantity` at aspect ratio
     a; nan between regimes, where the paper claims neither law."""
-    for r in load_data(name):
-        if r["quantity"] == quantity and float(r["a_min"]) <= a < float(r["a_max"]):
-            return float(r["coefficient"]) * a ** float(r["exponent"])
-    return float("nan")
+    lo, hi = law_bracket(name, quantity, a)
+    return lo if lo == hi else float("nan")
+
+
+def law_bracket(name, quantity, a):
+    """The values at a of the laws of data file `name` for `quantity`: the
+    one law's value twice inside a regime; between regimes the two
+    neighbouring laws' values, smaller first."""
+    rows = [r for r in load_data(name) if r["quantity"] == quantity]
+    law = lambda r: float(r["coefficient"]) * a ** float(r["exponent"])
+    for r in rows:
+        if float(r["a_min"]) <= a < float(r["a_max"]):
+            return law(r), law(r)
+    below = max((r for r in rows if float(r["a_max"]) <= a), key=lambda r: float(r["a_max"]))
+    above = min((r for r in rows if float(r["a_min"]) > a), key=lambda r: float(r["a_min"]))
+    return tuple(sorted((law(below), law(above))))
 
 
 def lube_runout(a):
     # Lube et al. 2005: (d_inf - d_i)/d_i = 1.2 a (a < 1.8), 1.9 a^(2/3) (a > 2.8)
-    return scaling_law("lube_2005_granular_collapse.csv", "runout", a)
+    return scaling_law(PLANAR_FITS, "runout", a)
 
 
 def lube_height(a):
     # Lube et al. 2005: h_inf/d_i = a (a < 1.15), a^(2/5) (a > 1.15)
-    return scaling_law("lube_2005_granular_collapse.csv", "final_height", a)
+    return scaling_law(PLANAR_FITS, "final_height", a)
 
 
-def runout_error(measured, a, law):
-    """Relative error of a run-out against a fitted law; between the regimes
-    of the planar fits (1.8 < a < 2.8) against the nearer of the two laws'
-    values there, zero when it lies between them."""
-    ref = law(a)
-    if math.isfinite(ref):
-        return ref, abs(measured - ref) / ref
-    lo, hi = sorted((1.2 * a, 1.9 * a ** (2.0 / 3.0)))
+def runout_error(measured, a, name):
+    """Relative error of a run-out against the fitted laws of data file
+    `name`; between regimes (the planar fits' 1.8 < a < 2.8) against the
+    nearer of the two neighbouring laws' values, zero between them."""
+    lo, hi = law_bracket(name, "runout", a)
     if lo <= measured <= hi:
         return 0.5 * (lo + hi), 0.0
     ref = lo if measured < lo else hi
     return ref, abs(measured - ref) / ref
 
 
+PLANAR_FITS = "lube_2005_granular_collapse.csv"
+AXISYMMETRIC_FITS = "lube_2004_axisymmetric_collapse.csv"
+
+
 def axisymmetric_runout(a):
     # Lube et al. 2004: (r_inf - r_i)/r_i = 1.24 a (a < 1.7), 1.6 a^(1/2) (a > 1.7)
-    return scaling_law("lube_2004_axisymmetric_collapse.csv", "runout", a)
+    return scaling_law(AXISYMMETRIC_FITS, "runout", a)
 
 
 def axisymmetric_height(a):
     # Lajeunesse et al. 2004: h_inf/r_i = a (a < 0.74), 0.74 (a > 0.74)
-    return scaling_law("lube_2004_axisymmetric_collapse.csv", "final_height", a)
+    return scaling_law(AXISYMMETRIC_FITS, "final_height", a)
 
 
 def mesh_extent(scene, name):
@@ -265,7 +279,7 @@ def measure_axisymmetric(scene, out):
     runout = (radius(pn).max() - radius(p0).max()) / r_i
     height = (pn["y"].max() + (y1 - p0["y"].max()) - y0) / r_i
     moved = (radius(pn).max() - radius(pm).max()) / r_i
-    ref, err = runout_error(runout, a, axisymmetric_runout)
+    ref, err = runout_error(runout, a, AXISYMMETRIC_FITS)
     ref_h = axisymmetric_height(a)
     return ("runout (r_inf-r_i)/r_i at a=%.1f" % a, runout, ref, err,
             "H_inf/r_i %.3f vs %.3f (err %.1f%%); edge moved %.3f r_i in the last 5 frames" %
@@ -285,7 +299,7 @@ def measure_granular(scene, out):
     # Heights from the floor the column stands on (a rigid box under it).
     height = (pn["y"].max() + (col["max"][1] - p0["y"].max()) - col["min"][1]) / L0
     moved = (pn["x"].max() - p1["x"].max()) / L0
-    ref_r, err = runout_error(runout, a, lube_runout)
+    ref_r, err = runout_error(runout, a, PLANAR_FITS)
     ref_h = lube_height(a)
     err_h = abs(height - ref_h) / ref_h
     return ("runout (L_inf-L0)/L0 at a=%.1f" % a, runout, ref_r, err,
@@ -293,7 +307,10 @@ def measure_granular(scene, out):
             (height, ref_h, 100 * err_h, moved))
 
 
+@functools.lru_cache(maxsize=None)
 def load_data(name):
+    """The rows of a data file as dicts (cached: the fitted laws read theirs
+    for every point they are evaluated at). Callers must not change them."""
     rows = []
     with open(os.path.join(DATA, name)) as f:
         for line in f:
@@ -311,7 +328,8 @@ def dam_break_reference():
             np.array([float(r["T"]) for r in ko]), np.array([float(r["Z"]) for r in ko]))
 
 
-def measure_dam_break(scene, out):
+def dam_break_front(scene, out):
+    """The front Z = z/a (farthest particle) against T = t sqrt(2g/a), every frame."""
     n = scene["frames"]["count"]
     fps = scene["frames"]["fps"]
     col = box_of(scene, "column")
@@ -322,7 +340,11 @@ def measure_dam_break(scene, out):
         p = read_ply(ply_path(out, f))
         T.append(f / fps * math.sqrt(2 * G / a))
         Z.append((p["x"].max() - x0 + a) / a)
-    T, Z = np.array(T), np.array(Z)
+    return np.array(T), np.array(Z)
+
+
+def measure_dam_break(scene, out):
+    T, Z = dam_break_front(scene, out)
     mt, mz, kt, kz = dam_break_reference()
     sel = (mt > 0) & (mt <= T[-1])
     rel = (np.interp(mt[sel], T, Z) - mz[sel]) / mz[sel]
@@ -441,7 +463,9 @@ def run_triad(scene_path, out, threads, extra=()):
     return wall, rec
 
 
-def run_one(case, scene, work, threads, extra=(), keep=False):
+def run_one(case, scene, work, threads, extra=(), keep=False, inspect=None):
+    """Runs a case's scene and measures it; `inspect(scene, out)`, if given,
+    reads more from the cache before it goes (its result: "inspected")."""
     os.makedirs(work, exist_ok=True)
     path = os.path.join(work, "scene.json")
     with open(path, "w") as f:
@@ -457,11 +481,13 @@ def run_one(case, scene, work, threads, extra=(), keep=False):
         scene["solver"]["particles_per_cell"] = q.get("particles_per_cell",
                                                       scene["solver"]["particles_per_cell"])
     quantity, measured, ref, err, note = CASES[case]["measure"](scene, out)
+    inspected = inspect(scene, out) if inspect else None
     if not keep:
         shutil.rmtree(out)
     return dict(wall_s=wall, solve_s=rec["wall_seconds"]["phases"].get("solve", 0.0),
                 particles=rec["particles"]["total"], steps=rec["steps"], quantity=quantity,
-                measured=measured, reference=ref, error=err, note=note, run=rec)
+                measured=measured, reference=ref, error=err, note=note, run=rec,
+                inspected=inspected)
 
 
 FIELDS = ["case", "variant", "axis", "dx", "ppc", "cfl", "transfer", "quantity", "measured",
