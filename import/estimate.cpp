@@ -21,9 +21,12 @@ namespace triad {
 
 namespace {
 
-// Bytes per MPM particle besides its state: binning (block and source
-// index, 8), the reordering scratch (36) and the sparse grid's share (16)
-// (bench/RESULTS.md, "Where the bytes go").
+// Bytes per MPM particle besides its state, at the peak: binning (source
+// index 4, and the first step's runs of unsorted particles), the reorder's
+// scratch and the sparse grid, which share one buffer (12), and what the
+// process holds besides (bench/RESULTS.md, "Where the bytes go" and
+// "Estimates before work": peak growth 143 bytes per jelly particle of
+// 102 bytes of state).
 constexpr double kParticleOverhead = 60.0;
 // A rigid or collider sample: its rest data and its points each step.
 constexpr double kSampleBytes = 90.0;

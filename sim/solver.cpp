@@ -184,7 +184,7 @@ void Solver::drainSinks(double dt) {
 
 void Solver::binParticles() {
   PhaseTimer timer(times_.bin);
-  binner_.bin(world_.sets, params_.shifted_origin, params_.inv_dx, layout_);
+  binner_.bin(world_.sets, params_.shifted_origin, params_.inv_dx, layout_, &grid_);
 }
 
 double Solver::wakeMargin() const {

@@ -1,5 +1,6 @@
 #include "sim/mpm/particles.h"
 
+#include <algorithm>
 #include <cstring>
 
 namespace triad {
@@ -12,13 +13,11 @@ namespace {
 // written back still reads the unpermuted slice k. Matrices go in three
 // column passes and the scratch holds 12 bytes per particle instead of 36.
 template <class T>
-void permuteArray(std::vector<T>& a, const std::vector<uint32_t>& src,
-                  std::vector<unsigned char>& scratch) {
+void permuteArray(std::vector<T>& a, const std::vector<uint32_t>& src, unsigned char* tmp) {
   if (a.empty()) return;
   constexpr size_t kSlice = sizeof(T) % 12 == 0 ? 12 : sizeof(T);
+  static_assert(kSlice <= ParticleSet::kPermuteScratch);
   const size_t n = a.size();
-  scratch.resize(std::max(scratch.size(), n * kSlice));
-  unsigned char* tmp = scratch.data();
   unsigned char* base = reinterpret_cast<unsigned char*>(a.data());
   for (size_t at = 0; at < sizeof(T); at += kSlice) {
 #pragma omp parallel for schedule(static)
@@ -76,7 +75,7 @@ float ParticleSet::volumeRatio(size_t i) const {
   return r;
 }
 
-void ParticleSet::permute(const std::vector<uint32_t>& src, std::vector<unsigned char>& scratch) {
+void ParticleSet::permute(const std::vector<uint32_t>& src, unsigned char* scratch) {
   permuteArray(x, src, scratch);
   permuteArray(v, src, scratch);
   permuteArray(C, src, scratch);

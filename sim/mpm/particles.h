@@ -35,8 +35,10 @@ struct ParticleSet {
   void reserve(size_t n);
   // Total volume ratio det(F) * J (or J alone for water) of particle i.
   float volumeRatio(size_t i) const;
-  // Reorder every attribute by `src` (new[i] = old[src[i]]), using `scratch`.
-  void permute(const std::vector<uint32_t>& src, std::vector<unsigned char>& scratch);
+  // Reorders every attribute by `src` (new[i] = old[src[i]]) through
+  // `scratch`, which holds at least kPermuteScratch bytes per particle.
+  static constexpr size_t kPermuteScratch = 12;
+  void permute(const std::vector<uint32_t>& src, unsigned char* scratch);
   // Bytes held by the attribute arrays (capacity, not size).
   size_t bytes() const;
 };

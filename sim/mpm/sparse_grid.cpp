@@ -47,11 +47,12 @@ size_t Binner::bytes() const {
   size_t runs = 0;
   for (const auto& r : runs_) runs += r.capacity();
   for (const auto& r : chunk_runs_) runs += r.capacity();
-  return src_.capacity() * 4 + scratch_.capacity() + run_keys_.capacity() * 8 + runs * sizeof(Run);
+  return src_.capacity() * 4 + scratch_.capacity() * sizeof(GridNode) + run_keys_.capacity() * 8 +
+         runs * sizeof(Run);
 }
 
 void Binner::bin(std::vector<ParticleSet>& sets, const Vec3f& shifted_origin, float inv_dx,
-                 GridLayout& layout) {
+                 GridLayout& layout, std::vector<GridNode>* spare) {
   auto keyOf = [&](const Vec3f& x) {
     const Vec3i base = baseNode(x, shifted_origin, inv_dx);
     return packBlock(Vec3i(blockOf(base.x()), blockOf(base.y()), blockOf(base.z())));
@@ -84,7 +85,7 @@ void Binner::bin(std::vector<ParticleSet>& sets, const Vec3f& shifted_origin, fl
     // memory once the particles are sorted.
     if (runs_[s].capacity() > 4 * runs_[s].size() + 4096) runs_[s].shrink_to_fit();
     for (int64_t c = 0; c < chunks; ++c)
-      if (chunk_runs_[c].capacity() > 4 * chunk_runs_[c].size() + 4096)
+      if (chunk_runs_[c].capacity() > 2 * chunk_runs_[c].size() + 256)
         chunk_runs_[c].shrink_to_fit();
   }
 
@@ -119,7 +120,11 @@ void Binner::bin(std::vector<ParticleSet>& sets, const Vec3f& shifted_origin, fl
       const uint32_t end = r + 1 < runs.size() ? runs[r + 1].start : uint32_t(set.size());
       for (uint32_t i = runs[r].start; i < end; ++i) src_[cursor[runs[r].block]++] = i;
     }
-    set.permute(src_, scratch_);
+    std::vector<GridNode>& buffer = spare ? *spare : scratch_;
+    const size_t need = set.size() * ParticleSet::kPermuteScratch;
+    if (buffer.size() * sizeof(GridNode) < need)
+      buffer.resize((need + sizeof(GridNode) - 1) / sizeof(GridNode));
+    set.permute(src_, reinterpret_cast<unsigned char*>(buffer.data()));
   }
 
   // Grid blocks: every particle block and its neighbours on the + side.
@@ -132,6 +137,8 @@ void Binner::bin(std::vector<ParticleSet>& sets, const Vec3f& shifted_origin, fl
   }
   sortUnique(run_keys_);
   layout.grid_keys = run_keys_;
+  // The first step's unsorted input had a key per short run: let it go.
+  if (run_keys_.capacity() > 2 * run_keys_.size() + 4096) run_keys_.shrink_to_fit();
 
   layout.neighbours.resize(nblocks);
   for (auto& c : layout.colour_blocks) c.clear();

@@ -71,8 +71,13 @@ struct GridLayout {
 // the layout. `shifted_origin` is node 0 plus dx/2 (see shiftedCoord).
 class Binner {
  public:
+  // The reorder goes through `spare`, a buffer whose contents are dead
+  // until the next scatter (the solver passes its grid, which P2G fills
+  // afresh): grown if it is smaller than the largest set needs, so that
+  // the step holds the larger of grid and scratch, not both. Without it,
+  // the binner keeps a scratch of its own.
   void bin(std::vector<ParticleSet>& sets, const Vec3f& shifted_origin, float inv_dx,
-           GridLayout& layout);
+           GridLayout& layout, std::vector<GridNode>* spare = nullptr);
   size_t bytes() const;
 
  private:
@@ -85,7 +90,7 @@ class Binner {
   std::vector<std::vector<Run>> runs_;        // per set
   std::vector<std::vector<Run>> chunk_runs_;  // per chunk of particles, reused
   std::vector<uint32_t> src_;                 // per particle: source index of the sorted order
-  std::vector<unsigned char> scratch_;
+  std::vector<GridNode> scratch_;             // without a spare buffer
   std::vector<uint64_t> run_keys_;
 };
 

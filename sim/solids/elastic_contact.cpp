@@ -337,12 +337,16 @@ size_t pushParticlesOut(ElasticSolid& b, std::vector<ParticleSet>& sets, double 
     // velocities before this pass), then applied in particle order, each
     // against the velocities the ones before it left: the solid's nodes
     // take the same sums on any number of threads.
+    // Chunks of fixed size, dealt out as threads come free: the particles
+    // near a solid lie together in the sorted order, so equal shares per
+    // thread left one thread with all of them.
+    constexpr int64_t kChunk = 2048;
     const int64_t count = int64_t(set.size());
-    const int chunks = count > 8192 ? omp_get_max_threads() : 1;
+    const int64_t chunks = (count + kChunk - 1) / kChunk;
     std::vector<std::vector<std::pair<uint32_t, Penetration>>> part(static_cast<size_t>(chunks));
-#pragma omp parallel for schedule(static, 1) if (chunks > 1)
-    for (int c = 0; c < chunks; ++c)
-      for (int64_t p = count * c / chunks; p < count * (c + 1) / chunks; ++p) {
+#pragma omp parallel for schedule(dynamic, 1) if (chunks > 1)
+    for (int64_t c = 0; c < chunks; ++c)
+      for (int64_t p = c * kChunk; p < std::min(count, (c + 1) * kChunk); ++p) {
         Penetration pen;
         if (findPenetration(b, end, set.x[size_t(p)].cast<double>(),
                             set.v[size_t(p)].cast<double>(), Vec3d::Zero(), dt, pen))
