@@ -230,6 +230,47 @@ TEST(Svd3Batch, MatchesScalarIncludingShortTails) {
   }
 }
 
+TEST(PolarBatch, DoubleMatchesScalarNewtonAndSvd) {
+  // The FEM's batched Newton iteration: the scalar polarRotation<double>
+  // to rounding, for small and large strains, rotations, nearly singular
+  // and inverted elements (those through the SVD), and short tails.
+  std::mt19937 rng(19);
+  for (const int n : {0, 1, 7, 8, 9, 64, 131}) {
+    std::vector<Mat3d> F(static_cast<size_t>(n)), R(static_cast<size_t>(n));
+    for (int i = 0; i < n; ++i) {
+      const Mat3d Q = randomRotation<double>(rng);
+      switch (i % 5) {
+        case 0:
+          F[size_t(i)] = Q * (Mat3d::Identity() + randomMatrix<double>(rng, 1e-3));
+          break;
+        case 1:
+          F[size_t(i)] = Q * (Mat3d::Identity() + randomMatrix<double>(rng, 0.3));
+          break;
+        case 2:
+          F[size_t(i)] = 50.0 * randomMatrix<double>(rng);
+          break;
+        case 3:
+          F[size_t(i)] = Q * Vec3d(1.0, 1e-5, 0.5).asDiagonal();
+          break;  // nearly flat
+        default:
+          F[size_t(i)] = Q * Vec3d(1.2, 0.8, -0.6).asDiagonal();
+          break;  // inverted
+      }
+    }
+    polarRotationBatch(n, F.data(), R.data());
+    for (int i = 0; i < n; ++i) {
+      const Mat3d& A = F[size_t(i)];
+      const Mat3d& Rb = R[size_t(i)];
+      EXPECT_LE((Rb - polarRotation(A)).norm(), 1e-12) << "matrix " << i << " of " << n;
+      EXPECT_LE((Rb.transpose() * Rb - Mat3d::Identity()).norm(), 1e-12);
+      EXPECT_NEAR(Rb.determinant(), 1.0, 1e-12);
+      // R^T F is the symmetric stretch.
+      const Mat3d S = Rb.transpose() * A;
+      EXPECT_LE((S - S.transpose()).norm(), 1e-10 * A.norm());
+    }
+  }
+}
+
 TEST(Svd3Batch, OutputsMayAliasInput) {
   std::mt19937 rng(18);
   std::vector<Mat3f> F(20), R(20);
