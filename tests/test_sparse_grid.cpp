@@ -100,6 +100,10 @@ TEST(SparseGrid, ReorderThroughTheGridsBufferMatchesItsOwnScratch) {
   const Vec3f origin = Vec3f::Constant(-0.5f + 0.005f);
   GridLayout la, lb;
   Binner own, lent;
+  auto key = [&](const Vec3f& x) {
+    const Vec3i n = baseNode(x, origin, 100.0f);
+    return packBlock(Vec3i(blockOf(n.x()), blockOf(n.y()), blockOf(n.z())));
+  };
   own.bin(a, origin, 100.0f, la);
   std::vector<GridNode> grid(10, GridNode{1.0f, {2.0f, 3.0f, 4.0f}});  // too small: grown
   lent.bin(b, origin, 100.0f, lb, &grid);
@@ -114,13 +118,7 @@ TEST(SparseGrid, ReorderThroughTheGridsBufferMatchesItsOwnScratch) {
     EXPECT_EQ(a[k].F, b[k].F);
     EXPECT_EQ(a[k].J, b[k].J);
     // Sorted by block: every particle's block is in key order.
-    for (size_t i = 1; i < b[k].size(); ++i) {
-      auto key = [&](const Vec3f& x) {
-        const Vec3i n = baseNode(x, origin, 100.0f);
-        return packBlock(Vec3i(blockOf(n.x()), blockOf(n.y()), blockOf(n.z())));
-      };
-      ASSERT_LE(key(b[k].x[i - 1]), key(b[k].x[i]));
-    }
+    for (size_t i = 1; i < b[k].size(); ++i) ASSERT_LE(key(b[k].x[i - 1]), key(b[k].x[i]));
   }
 }
 

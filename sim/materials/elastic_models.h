@@ -98,9 +98,11 @@ struct FixedCorotated {
   }
 
   // P = 2 mu (F - R) + lambda (J - 1) cof(F)
-  Mat3<T> firstPiola(const Mat3<T>& F) const {
+  Mat3<T> firstPiola(const Mat3<T>& F) const { return firstPiola(F, polarRotation(F)); }
+  // The same with F's polar rotation R already known (batched by the FEM).
+  Mat3<T> firstPiola(const Mat3<T>& F, const Mat3<T>& R) const {
     const T J = F.determinant();
-    return T(2) * mu * (F - polarRotation(F)) + lambda * (J - 1) * material_detail::cofactor(F);
+    return T(2) * mu * (F - R) + lambda * (J - 1) * material_detail::cofactor(F);
   }
 
   // tau = 2 mu (F - R) F^T + lambda (J - 1) J I: the solver's hot call.

@@ -1,6 +1,5 @@
 #include "sim/mpm/particles.h"
 
-#include <algorithm>
 #include <cstring>
 
 namespace triad {

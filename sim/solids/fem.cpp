@@ -94,13 +94,10 @@ void elementForces(const FemBody& b, const std::vector<Vec3d>& y, const std::vec
           for (int64_t t = t0; t < t1; ++t) {
             const Mat3d& F = Fs[t - t0];
             Mat3d P;
-            if constexpr (kChunk > 1) {
-              // P = 2 mu (F - R) + lambda (J - 1) cof(F), as FixedCorotated::firstPiola.
-              P = 2.0 * mat.mu * (F - Rs[t - t0]) +
-                  mat.lambda * (F.determinant() - 1.0) * material_detail::cofactor(F);
-            } else {
+            if constexpr (kChunk > 1)
+              P = mat.firstPiola(F, Rs[t - t0]);
+            else
               P = mat.firstPiola(F);
-            }
             if (vel) {
               const Mat3d Finv = F.inverse();
               const Mat3d L = edges(*vel, tets[t]) * b.dm_inv[t] * Finv;
