@@ -17,6 +17,7 @@
 #include "app/interrupt.h"
 #include "app/output_thread.h"
 #include "app/rate_probe.h"
+#include "app/run_split.h"
 #include "export/atomic_file.h"
 #include "export/run_record.h"
 #include "import/estimate.h"
@@ -51,8 +52,22 @@ void printSummary(const RunRecord& rec, const std::string& out_dir) {
 
 std::string runRecordPath(const std::string& out_dir) { return out_dir + "/run.json"; }
 
-int runScene(const RunOptions& options) {
+int runScene(const RunOptions& options_in) {
   const double t_start = omp_get_wtime();
+  // Under mpirun, one of several processes: process 0 speaks and writes.
+  std::unique_ptr<RunSplit> split_owner;
+  try {
+    split_owner = std::make_unique<RunSplit>();
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "triad: error: %s\n", e.what());
+    return kExitBadInput;
+  }
+  RunSplit& split = *split_owner;
+  RunOptions options = options_in;
+  if (!split.root()) {
+    options.progress = ProgressMode::Quiet;
+    options.no_probe = true;
+  }
   if (options.threads > 0) omp_set_num_threads(options.threads);
   if (!options.quality.empty() && !findQualityPreset(options.quality)) {
     std::fprintf(stderr, "triad: error: --quality: expected one of %s, got \"%s\"\n",
@@ -103,27 +118,33 @@ int runScene(const RunOptions& options) {
     for (const std::string& w : extremeWarnings(scene, estimate))
       std::fprintf(stderr, "triad: warning: %s\n", w.c_str());
     world = buildSceneWorld(scene, mesh_cache);
-    printMeshWarnings();
+    if (split.root()) printMeshWarnings();
+    if (const std::string what = split.unsupported(world); !what.empty())
+      throw InputError(scene.source_path, "this scene uses " + what +
+                                              ", which a run split over processes (mpirun) does "
+                                              "not support yet: run it as one process");
     out_dir = options.out_dir.empty() ? scene.output.dir : options.out_dir;
     try {
-      makeOutputDirectories(scene, out_dir);
+      if (split.root()) makeOutputDirectories(scene, out_dir);
     } catch (const std::exception& e) {
       throw InputError(options.out_dir.empty() ? scene.source_path + ": output.dir" : "--out",
                        e.what());
     }
   } catch (const InputError& e) {
-    printMeshWarnings();
-    std::fprintf(stderr, "triad: error: %s\n", e.what());
+    if (split.root()) {
+      printMeshWarnings();
+      std::fprintf(stderr, "triad: error: %s\n", e.what());
+    }
     return kExitBadInput;
   }
   // The preview renderer keeps one OSMesa context for the whole run.
   std::unique_ptr<render::PreviewWriter> preview;
-  if (scene.output.png) {
+  if (scene.output.png && split.root()) {
     try {
       preview = std::make_unique<render::PreviewWriter>(scene, out_dir);
     } catch (const std::exception& e) {
       std::fprintf(stderr, "triad: error: previews: %s\n", e.what());
-      return kExitRunFailed;
+      split.abort(kExitRunFailed);
     }
   }
 
@@ -179,30 +200,39 @@ int runScene(const RunOptions& options) {
   StepRecord before;  // step statistics of the run before it was resumed
   BodyLogs body_logs;  // bodies/rigid_states.csv and forces.csv: rows of the frames written
   try {
-    removeStaleTemporaries(out_dir);
-    removeFramesAfter(out_dir, scene.frames.count);
-    removeOtherBodies(out_dir, world);
+    if (split.root()) {
+      removeStaleTemporaries(out_dir);
+      removeFramesAfter(out_dir, scene.frames.count);
+      removeOtherBodies(out_dir, world);
+    }
     if (options.resume) {
       if (auto rp = resumeFromCheckpoint(scene, out_dir, checkpoint_key, world, solver)) {
         start_frame = resumed_from = rp->frame;
         before = rp->record;
         body_logs = std::move(rp->logs);
-        std::fprintf(stderr, "triad: resuming after frame %d from %s\n", rp->frame,
-                     rp->checkpoint.c_str());
-      } else {
+        if (split.root())
+          std::fprintf(stderr, "triad: resuming after frame %d from %s\n", rp->frame,
+                       rp->checkpoint.c_str());
+      } else if (split.root()) {
         std::fprintf(stderr, "triad: note: no usable checkpoint in %s: starting from frame 0\n",
                      checkpointDir(out_dir).c_str());
       }
-    } else {
+    } else if (split.root()) {
       removeCheckpoints(out_dir);
     }
   } catch (const InputError& e) {
-    std::fprintf(stderr, "triad: error: %s\n", e.what());
+    if (split.root()) std::fprintf(stderr, "triad: error: %s\n", e.what());
     return kExitBadInput;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "triad: error: %s\n", e.what());
-    return kExitRunFailed;
+    split.abort(kExitRunFailed);
   }
+  // Every process has read the same checkpoint (or none): each keeps its
+  // share of the particles from here on. Only process 0 counts the steps
+  // before a resume, so that their sum is the run's.
+  split.barrier();
+  split.attach(world, solver);
+  if (!split.root()) before = StepRecord{};
   rec.frames_written = resumed_from + 1;  // frames 0..resumed_from are on disk
   rec.resume = options.resume;
   rec.resumed_from_frame = resumed_from;
@@ -236,6 +266,11 @@ int runScene(const RunOptions& options) {
     s.times = solver.phaseTimes();
     s.steps = runSteps();
     s.particles = world.particleCount();
+    if (split.active()) {
+      // Every process's share (a collective: all processes call this together).
+      s.particles = size_t(split.sum(double(s.particles)));
+      s.steps.particle_steps = uint64_t(split.sum(double(s.steps.particle_steps)));
+    }
     for (const Source& src : world.sources) s.emitted.emplace_back(src.name, src.emitted);
     for (const Sink& sink : world.sinks) s.removed.emplace_back(sink.name, sink.removed);
     s.time = world.time;
@@ -268,7 +303,7 @@ int runScene(const RunOptions& options) {
     rec.finished = finished;
     rec.error = error;
     rec.ended_utc = utcNow();
-    writeRunRecord(runRecordPath(out_dir), rec);
+    if (split.root()) writeRunRecord(runRecordPath(out_dir), rec);
   };
 
   // Everything a frame writes, in this order: the cache files, then the
@@ -302,11 +337,15 @@ int runScene(const RunOptions& options) {
   auto writeFrame = [&](int frame) {
     const double t0 = omp_get_wtime();
     // The frame's state; the world itself is copied only when the solver
-    // steps on while it is written.
+    // steps on while it is written. Split over processes, process 0 gathers
+    // every particle into a copy of its own and alone writes.
     std::shared_ptr<const World> w =
-        overlap ? std::make_shared<const World>(world)
-                : std::shared_ptr<const World>(&world, [](const World*) {});
+        split.active() ? split.gather(world)
+        : overlap      ? std::make_shared<const World>(world)
+                       : std::shared_ptr<const World>(&world, [](const World*) {});
     SimState sim = simState();
+    split.record(rec, world);
+    if (!split.root()) return;
     std::vector<BodyLoad> loads = solver.bodyLoads();
     const SolverState solver_state = solver.state();
     output.submit([&writeFrameFiles, w, frame, sim = std::move(sim), loads = std::move(loads),
@@ -337,8 +376,9 @@ int runScene(const RunOptions& options) {
     int sig;
   };
   InterruptGuard interrupt_guard;
-  auto checkInterrupt = [] {
-    if (const int sig = pendingInterrupt()) throw Interrupted{sig};
+  // Split over processes, all of them stop at the same step.
+  auto checkInterrupt = [&split] {
+    if (const int sig = split.anyInterrupt(pendingInterrupt())) throw Interrupted{sig};
   };
   try {
     if (resumed_from < 0) writeFrame(0);
@@ -350,6 +390,7 @@ int runScene(const RunOptions& options) {
         progress.step(frame, world.steps, world.time, dt);
         checkInterrupt();
       });
+      split.rebalance(world);  // the split follows the material
       writeFrame(frame);
       progress.frameDone(frame, world.steps, world.time);
     }
@@ -362,6 +403,8 @@ int runScene(const RunOptions& options) {
     // was written).
     drainOutput();
     progress.finish();
+    const SimState stopped = simState();  // every process stops here together
+    if (!split.root()) return interruptedExitStatus(stop.sig);
     const std::string why = "interrupted by " + signalName(stop.sig) + " in frame " +
                             std::to_string(frame) + " at t = " + std::to_string(world.time) + " s";
     std::fprintf(stderr, "triad: %s: frames 0..%d are complete in %s\n", why.c_str(),
@@ -380,7 +423,7 @@ int runScene(const RunOptions& options) {
     rec.interrupted_by = signalName(stop.sig);
     rec.interrupted_frame = frame;
     try {
-      record(simState(), false, why);
+      record(stopped, false, why);
     } catch (const std::exception& e2) {
       std::fprintf(stderr, "triad: error: %s\n", e2.what());
     }
@@ -391,20 +434,34 @@ int runScene(const RunOptions& options) {
     const bool sim = dynamic_cast<const SimulationError*>(&e) != nullptr;
     const std::string msg = std::string(sim ? "simulation failed in frame " : "failed in frame ") +
                             std::to_string(frame) + ": " + e.what();
-    std::fprintf(stderr, "triad: error: %s\n", msg.c_str());
+    std::fprintf(stderr, "triad: error: %s%s\n",
+                 split.active() ? ("process " + std::to_string(split.rank()) + ": ").c_str() : "",
+                 msg.c_str());
+    if (split.active() && !split.root()) split.abort(kExitRunFailed);
     std::fprintf(stderr, "triad: frames 0..%d are complete in %s\n", rec.frames_written - 1,
                  out_dir.c_str());
     try {
-      record(simState(), false, msg);
+      // Split, the other processes may wait in an exchange: no collective here.
+      if (split.active()) {
+        SimState local;
+        local.times = solver.phaseTimes();
+        local.time = world.time;
+        record(local, false, msg);
+      } else {
+        record(simState(), false, msg);
+      }
     } catch (const std::exception& e2) {
       std::fprintf(stderr, "triad: error: %s\n", e2.what());
     }
+    if (split.active()) split.abort(kExitRunFailed);
     return kExitRunFailed;
   }
   progress.finish();
   try {
     if (preview) output_seconds += preview->finish();  // the contact sheet
-    record(simState(), true, "");
+    const SimState last = simState();
+    if (!split.root()) return kExitOk;
+    record(last, true, "");
   } catch (const std::exception& e) {
     std::fprintf(stderr, "triad: error: %s\n", e.what());
     return kExitRunFailed;

@@ -27,6 +27,12 @@ void writeRunRecord(const std::string& path, const RunRecord& rec) {
   j["threads"] = rec.threads;
   j["omp_wait_policy"] = rec.omp_wait_policy;
   j["output_overlap"] = rec.output_overlap;
+  if (rec.mpi_ranks > 0)
+    j["mpi"] = {{"ranks", rec.mpi_ranks},
+                {"particles_per_frame", rec.mpi_particles},
+                {"comm_seconds", rec.mpi_comm_seconds},
+                {"bytes_sent", rec.mpi_bytes_sent},
+                {"particles_received", rec.mpi_received}};
   j["quality"] = {{"preset", rec.quality.empty() ? nlohmann::ordered_json(nullptr)
                                                  : nlohmann::ordered_json(rec.quality)},
                   {"dx", rec.dx},

@@ -59,6 +59,13 @@ struct RunRecord {
   std::string interrupted_by;
   int interrupted_frame = -1;
   std::string started_utc, ended_utc;
+  // A run split over MPI processes: their number (0: not split), each
+  // frame's particles per process, and each process's seconds in exchanges,
+  // bytes sent and particles received from the others so far.
+  int mpi_ranks = 0;
+  std::vector<std::vector<uint64_t>> mpi_particles;
+  std::vector<double> mpi_comm_seconds;
+  std::vector<uint64_t> mpi_bytes_sent, mpi_received;
 };
 
 void writeRunRecord(const std::string& path, const RunRecord& rec);

@@ -16,6 +16,8 @@ PACKAGES=(
   libopenvdb-dev libboost-iostreams-dev libtbb-dev
   # render/: headless OpenGL and PNG
   libosmesa6-dev libpng-dev
+  # dist/: one simulation over several processes (mpirun -np N triad run)
+  libopenmpi-dev openmpi-bin
   # tests/ (vdb_print reads the VDB caches back independently; assimp-testmodels
   # holds real-world and broken meshes for the import tests)
   libgtest-dev libopenvdb-tools assimp-testmodels

@@ -117,19 +117,25 @@ void Solver::step(double dt) {
   const float fdt = static_cast<float>(dt);
   const bool solids = coupling_ != nullptr;
   if (!world_.sources.empty()) emitSources();  // refill the sources' shapes
-  has_particles_ = world_.particleCount() > 0;
+  // A process of a split run takes part in every exchange, with or without
+  // particles of its own.
+  has_particles_ = domain_ != nullptr || world_.particleCount() > 0;
   if (sleep_ && solids) sleepBodies();  // bodies resting in calm material
   if (solids) predictSolids(dt);  // solids' own step: v_q* of every collision particle
   if (has_particles_) {
     binParticles();
     if (sleep_) classifySleep();    // settled blocks skip the rest
+    if (domain_) domain_->extendLayout(layout_);  // blocks others scatter into
     computeStress(fdt);
     particlesToGrid();              // contract step 2
+    if (domain_) domain_->sumGhosts(layout_, grid_);  // partial sums to their owners
     if (solids) scatterSolids();    // steps 1, 3, 4
     updateGrid(fdt);                // step 5
+    if (domain_) domain_->returnHalo(layout_, grid_);  // owners' velocities back
     if (solids) collideSolids();    // step 6
     gridToParticles(fdt);           // step 7
     if (solids) pushOutOfSolids(dt);  // no particle stays inside a body
+    if (domain_) domain_->migrate(world_.sets);  // particles to their blocks' owners
     if (!world_.sinks.empty()) drainSinks(dt);  // remove what the sinks hold
   }
   if (solids) advanceSolids(dt);    // step 8, then contacts and rigid motion
@@ -294,6 +300,13 @@ void Solver::gridToParticles(float dt) {
   }
   if (!st.finite) reportNonFinite();
   max_speed_ = st.max_speed;
+  if (domain_) {
+    // The next step's length is the same on every process.
+    std::vector<double> m{double(max_speed_), double(max_stiffness_scale_)};
+    domain_->maxOverProcesses(m);
+    max_speed_ = float(m[0]);
+    max_stiffness_scale_ = float(m[1]);
+  }
 }
 
 void Solver::predictSolids(double dt) {

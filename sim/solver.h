@@ -6,11 +6,12 @@
 #include <vector>
 
 #include "sim/coupling/coupling.h"
+#include "sim/mpm/domain.h"
 #include "sim/mpm/grid_update.h"
-#include "sim/solids/rigid_contact.h"
 #include "sim/mpm/sleep.h"
 #include "sim/mpm/sparse_grid.h"
 #include "sim/mpm/transfer.h"
+#include "sim/solids/rigid_contact.h"
 #include "sim/world.h"
 
 namespace triad {
@@ -68,6 +69,13 @@ class Solver {
   // Testing aid: make one particle's velocity NaN during substep `step`
   // (counted from the start of the world), to exercise the failure path.
   void injectFaultAtStep(int64_t step) { fault_step_ = step; }
+
+  // Runs this world's particles as one part of a simulation split over
+  // several processes (sim/mpm/domain.h); the world must already hold only
+  // the particles this process owns. Scenes with solids, sources, sinks,
+  // sleep or FLIP do not run split.
+  void setDomain(DomainExchange* domain) { domain_ = domain; }
+  const TransferParams& transferParams() const { return params_; }
 
   SolverState state() const {
     return {max_speed_, max_stiffness_scale_, sleep_ ? sleep_->state() : SleepState{}};
@@ -131,6 +139,7 @@ class Solver {
   std::vector<float> wave_speed_;  // per set, at rest
   bool flip_ = false;
   bool has_particles_ = false;  // no MPM material: only solids move
+  DomainExchange* domain_ = nullptr;  // split over processes, or not
   int64_t fault_step_ = -1;
 
   Binner binner_;

@@ -2,10 +2,12 @@
 #include <gtest/gtest.h>
 #include <omp.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <random>
 #include <set>
 
+#include "sim/mpm/domain.h"
 #include "sim/mpm/grid_update.h"
 #include "sim/mpm/particles.h"
 #include "sim/mpm/sparse_grid.h"
@@ -87,6 +89,49 @@ TEST(SparseGrid, BinningSortsParticlesIntoTheirBlocks) {
     }
   }
   EXPECT_EQ(coloured, L.particleBlocks());
+}
+
+// Blocks another process scatters into join the layout: the keys stay
+// sorted and unique, and every particle block's neighbours still name the
+// same blocks, which a scatter through them then fills.
+TEST(SparseGrid, AddedGridBlocksKeepNeighboursPointingAtTheirBlocks) {
+  GridFixture s = makeSetup();
+  GridLayout& L = s.layout;
+  const std::vector<uint64_t> before = L.grid_keys;
+  std::vector<std::array<uint64_t, 8>> named(L.particleBlocks());
+  for (size_t pb = 0; pb < L.particleBlocks(); ++pb)
+    for (int d = 0; d < 8; ++d) named[pb][size_t(d)] = L.grid_keys[L.neighbours[pb][d]];
+  // New blocks before, between and after the present ones, one present
+  // twice, and one repeated.
+  const Vec3i lo = unpackBlock(before.front()), hi = unpackBlock(before.back());
+  std::vector<uint64_t> extra{packBlock(hi + Vec3i(3, 0, 0)), packBlock(lo - Vec3i(2, 0, 0)),
+                              before[before.size() / 2], packBlock(Vec3i(lo.x(), hi.y() + 5, 0)),
+                              packBlock(hi + Vec3i(3, 0, 0))};
+  addGridBlocks(L, extra);
+  EXPECT_EQ(L.grid_keys.size(), before.size() + 3);
+  EXPECT_TRUE(std::is_sorted(L.grid_keys.begin(), L.grid_keys.end()));
+  EXPECT_EQ(std::adjacent_find(L.grid_keys.begin(), L.grid_keys.end()), L.grid_keys.end());
+  for (uint64_t k : before)
+    EXPECT_TRUE(std::binary_search(L.grid_keys.begin(), L.grid_keys.end(), k));
+  for (size_t pb = 0; pb < L.particleBlocks(); ++pb)
+    for (int d = 0; d < 8; ++d) ASSERT_EQ(L.grid_keys[L.neighbours[pb][d]], named[pb][size_t(d)]);
+  // The scatter puts all mass on the particles' own blocks, none on the new ones.
+  std::vector<GridNode> grid;
+  computeAffine(s.sets, s.p);
+  particlesToGrid(s.sets, L, s.p, grid, nullptr);
+  ASSERT_EQ(grid.size(), L.gridBlocks() * size_t(kBlockNodes));
+  double total = 0.0, on_new = 0.0;
+  for (size_t gb = 0; gb < L.gridBlocks(); ++gb) {
+    const bool added = !std::binary_search(before.begin(), before.end(), L.grid_keys[gb]);
+    for (int k = 0; k < kBlockNodes; ++k) {
+      total += grid[gb * kBlockNodes + size_t(k)].m;
+      if (added) on_new += grid[gb * kBlockNodes + size_t(k)].m;
+    }
+  }
+  double mass = 0.0;
+  for (const ParticleSet& set : s.sets) mass += double(set.mass) * double(set.size());
+  EXPECT_NEAR(total, mass, 1e-4 * mass);
+  EXPECT_EQ(on_new, 0.0);
 }
 
 TEST(SparseGrid, ReorderThroughTheGridsBufferMatchesItsOwnScratch) {

@@ -1,7 +1,9 @@
 #include "sim/mpm/sparse_grid.h"
 
 #include <algorithm>
+#include <iterator>
 
+#include "sim/mpm/domain.h"
 #include "sim/mpm/particles.h"
 
 namespace triad {
@@ -150,6 +152,24 @@ void Binner::bin(std::vector<ParticleSet>& sets, const Vec3f& shifted_origin, fl
     const int colour = ((b.x() & 1) << 2) | ((b.y() & 1) << 1) | (b.z() & 1);
     layout.colour_blocks[colour].push_back(static_cast<uint32_t>(pb));
   }
+}
+
+void addGridBlocks(GridLayout& layout, std::vector<uint64_t> keys) {
+  sortUnique(keys);
+  std::vector<uint64_t> merged;
+  merged.reserve(layout.grid_keys.size() + keys.size());
+  std::set_union(layout.grid_keys.begin(), layout.grid_keys.end(), keys.begin(), keys.end(),
+                 std::back_inserter(merged));
+  if (merged.size() == layout.grid_keys.size()) return;
+  // Old block index -> new one: both lists are sorted, so one merge walk.
+  std::vector<uint32_t> moved(layout.grid_keys.size());
+  for (size_t i = 0, j = 0; i < layout.grid_keys.size(); ++i) {
+    while (merged[j] != layout.grid_keys[i]) ++j;
+    moved[i] = static_cast<uint32_t>(j);
+  }
+  for (auto& n : layout.neighbours)
+    for (uint32_t& g : n) g = moved[g];
+  layout.grid_keys = std::move(merged);
 }
 
 }  // namespace triad

@@ -1,0 +1,56 @@
+#pragma once
+// A run split over several MPI processes (dist/), or not: without a launcher
+// that started more than one process every call here does nothing, so the
+// pipeline reads the same either way. Process 0 writes the cache; the
+// others simulate their share and send their particles to it each frame.
+#include <cstdint>
+#include <memory>
+#include <string>
+
+namespace triad {
+
+struct World;
+class Solver;
+struct RunRecord;
+class MpiDomain;
+
+class RunSplit {
+ public:
+  // Starts MPI when a launcher (mpirun) started more than one process.
+  // Throws when it did but this program was built without MPI.
+  RunSplit();
+  ~RunSplit();
+  RunSplit(const RunSplit&) = delete;
+  RunSplit& operator=(const RunSplit&) = delete;
+
+  bool active() const { return size_ > 1; }
+  bool root() const { return rank_ == 0; }
+  int rank() const { return rank_; }
+  int size() const { return size_; }
+
+  // Why this world cannot run split (what it uses that the split does not
+  // support yet), or "".
+  std::string unsupported(const World& world) const;
+  // Splits the world between the processes (each holds the whole world on
+  // entry and keeps its share) and has the solver exchange through them.
+  void attach(World& world, Solver& solver);
+  // Moves the split to where the particles are now (each frame).
+  void rebalance(World& world);
+  // The world with every process's particles, on process 0 (null on the others).
+  std::shared_ptr<const World> gather(const World& world);
+  // Sums over processes.
+  double sum(double value);
+  // The largest pending signal of any process (0: none).
+  int anyInterrupt(int local);
+  // Adds this frame's particles per process and the exchanges' cost to the record (process 0).
+  void record(RunRecord& rec, const World& world);
+  void barrier();
+  // Ends every process of the run at once (a failure on one of them).
+  [[noreturn]] void abort(int code);
+
+ private:
+  int rank_ = 0, size_ = 1;
+  std::unique_ptr<MpiDomain> domain_;
+};
+
+}  // namespace triad

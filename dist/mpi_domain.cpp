@@ -1,0 +1,396 @@
+#include "dist/mpi_domain.h"
+
+#include <algorithm>
+#include <climits>
+#include <cstring>
+#include <stdexcept>
+
+#include "sim/mpm/particles.h"
+
+namespace triad {
+
+namespace {
+
+// Bytes of one particle of `set` in a message: every attribute it uses.
+size_t recordBytes(const ParticleSet& set) {
+  size_t b = sizeof(Vec3f) * 2 + sizeof(Mat3f) + sizeof(uint32_t) + sizeof(uint16_t);
+  if (set.usesF()) b += sizeof(Mat3f);
+  if (set.usesJ()) b += sizeof(float);
+  return b;
+}
+
+template <typename T>
+void put(std::vector<unsigned char>& out, const T& value) {
+  const auto* p = reinterpret_cast<const unsigned char*>(&value);
+  out.insert(out.end(), p, p + sizeof(T));
+}
+
+template <typename T>
+T take(const unsigned char*& in) {
+  T value;
+  std::memcpy(static_cast<void*>(&value), in, sizeof(T));
+  in += sizeof(T);
+  return value;
+}
+
+void packParticle(const ParticleSet& set, size_t i, std::vector<unsigned char>& out) {
+  put(out, set.x[i]);
+  put(out, set.v[i]);
+  put(out, set.C[i]);
+  if (set.usesF()) put(out, set.F[i]);
+  if (set.usesJ()) put(out, set.J[i]);
+  put(out, set.id[i]);
+  put(out, set.object[i]);
+}
+
+void unpackParticle(ParticleSet& set, const unsigned char*& in) {
+  set.x.push_back(take<Vec3f>(in));
+  set.v.push_back(take<Vec3f>(in));
+  set.C.push_back(take<Mat3f>(in));
+  if (set.usesF()) set.F.push_back(take<Mat3f>(in));
+  if (set.usesJ()) set.J.push_back(take<float>(in));
+  set.id.push_back(take<uint32_t>(in));
+  set.object.push_back(take<uint16_t>(in));
+}
+
+// Keeps the particles of `set` whose flag is 0, in their order.
+void keepUnflagged(ParticleSet& set, const std::vector<uint8_t>& gone) {
+  size_t out = 0;
+  for (size_t i = 0; i < set.size(); ++i) {
+    if (gone[i]) continue;
+    if (out != i) {
+      set.x[out] = set.x[i];
+      set.v[out] = set.v[i];
+      set.C[out] = set.C[i];
+      if (set.usesF()) set.F[out] = set.F[i];
+      if (set.usesJ()) set.J[out] = set.J[i];
+      set.id[out] = set.id[i];
+      set.object[out] = set.object[i];
+    }
+    ++out;
+  }
+  set.x.resize(out);
+  set.v.resize(out);
+  set.C.resize(out);
+  if (set.usesF()) set.F.resize(out);
+  if (set.usesJ()) set.J.resize(out);
+  set.id.resize(out);
+  set.object.resize(out);
+}
+
+// Empty copies of the sets' descriptions (material, masses), no particles.
+std::vector<ParticleSet> emptyLike(const std::vector<ParticleSet>& sets) {
+  std::vector<ParticleSet> out;
+  for (const ParticleSet& s : sets) {
+    ParticleSet e;
+    e.material = s.material;
+    e.model = s.model;
+    e.mass = s.mass;
+    e.volume = s.volume;
+    out.push_back(std::move(e));
+  }
+  return out;
+}
+
+void check(int rc, const char* what) {
+  if (rc != MPI_SUCCESS) throw std::runtime_error(std::string("MPI: ") + what + " failed");
+}
+
+}  // namespace
+
+MpiDomain::MpiDomain(MPI_Comm comm, const TransferParams& params) : comm_(comm), params_(params) {
+  MPI_Comm_rank(comm_, &rank_);
+  MPI_Comm_size(comm_, &size_);
+  cut_.assign(size_t(size_) + 1, UINT64_MAX);
+  cut_[0] = 0;
+  send_keys_.resize(size_t(size_));
+  recv_keys_.resize(size_t(size_));
+  send_index_.resize(size_t(size_));
+  recv_index_.resize(size_t(size_));
+}
+
+uint64_t MpiDomain::keyOf(const Vec3f& x) const {
+  const Vec3i base = baseNode(x, params_.shifted_origin, params_.inv_dx);
+  return packBlock(Vec3i(blockOf(base.x()), blockOf(base.y()), blockOf(base.z())));
+}
+
+int MpiDomain::ownerOf(uint64_t key) const {
+  // The last process whose first key is at or before this one.
+  return int(std::upper_bound(cut_.begin() + 1, cut_.end() - 1, key) - (cut_.begin() + 1));
+}
+
+std::vector<std::vector<unsigned char>> MpiDomain::exchange(
+    const std::vector<std::vector<unsigned char>>& out) {
+  const double t0 = MPI_Wtime();
+  const size_t n = size_t(size_);
+  std::vector<int> send_counts(n), recv_counts(n), send_offsets(n), recv_offsets(n);
+  for (size_t r = 0; r < n; ++r) {
+    if (out[r].size() > size_t(INT_MAX)) throw std::runtime_error("MPI: message over 2 GiB");
+    send_counts[r] = int(r == size_t(rank_) ? 0 : out[r].size());
+  }
+  check(MPI_Alltoall(send_counts.data(), 1, MPI_INT, recv_counts.data(), 1, MPI_INT, comm_),
+        "Alltoall");
+  std::vector<unsigned char> send, recv;
+  for (size_t r = 0; r < n; ++r) {
+    send_offsets[r] = int(send.size());
+    if (r != size_t(rank_)) send.insert(send.end(), out[r].begin(), out[r].end());
+  }
+  size_t total = 0;
+  for (size_t r = 0; r < n; ++r) {
+    recv_offsets[r] = int(total);
+    total += size_t(recv_counts[r]);
+  }
+  recv.resize(total);
+  check(MPI_Alltoallv(send.data(), send_counts.data(), send_offsets.data(), MPI_BYTE, recv.data(),
+                      recv_counts.data(), recv_offsets.data(), MPI_BYTE, comm_),
+        "Alltoallv");
+  std::vector<std::vector<unsigned char>> in(n);
+  for (size_t r = 0; r < n; ++r)
+    in[r].assign(recv.begin() + recv_offsets[r], recv.begin() + recv_offsets[r] + recv_counts[r]);
+  bytes_sent_ += send.size();
+  comm_seconds_ += MPI_Wtime() - t0;
+  return in;
+}
+
+void MpiDomain::balance(std::vector<ParticleSet>& sets, bool whole) {
+  const double t0 = MPI_Wtime();
+  // Particles per block here, as (key, count) sorted by key.
+  std::vector<uint64_t> keys;
+  for (const ParticleSet& s : sets)
+    for (const Vec3f& x : s.x) keys.push_back(keyOf(x));
+  std::sort(keys.begin(), keys.end());
+  std::vector<uint64_t> pairs;
+  for (size_t i = 0; i < keys.size();) {
+    size_t j = i;
+    while (j < keys.size() && keys[j] == keys[i]) ++j;
+    pairs.push_back(keys[i]);
+    pairs.push_back(j - i);
+    i = j;
+  }
+  // Every process's, merged: the whole material's blocks in key order.
+  if (!whole) {
+    int mine = int(pairs.size());
+    std::vector<int> counts(static_cast<size_t>(size_)), offsets(static_cast<size_t>(size_));
+    check(MPI_Allgather(&mine, 1, MPI_INT, counts.data(), 1, MPI_INT, comm_), "Allgather");
+    size_t total = 0;
+    for (size_t r = 0; r < counts.size(); ++r) {
+      offsets[r] = int(total);
+      total += size_t(counts[r]);
+    }
+    std::vector<uint64_t> all(total);
+    check(MPI_Allgatherv(pairs.data(), mine, MPI_UINT64_T, all.data(), counts.data(),
+                         offsets.data(), MPI_UINT64_T, comm_),
+          "Allgatherv");
+    std::vector<std::pair<uint64_t, uint64_t>> merged;
+    for (size_t i = 0; i + 1 < all.size(); i += 2) merged.emplace_back(all[i], all[i + 1]);
+    std::sort(merged.begin(), merged.end());
+    pairs.clear();
+    for (const auto& [key, n] : merged) {
+      if (!pairs.empty() && pairs[pairs.size() - 2] == key) {
+        pairs.back() += n;
+      } else {
+        pairs.push_back(key);
+        pairs.push_back(n);
+      }
+    }
+  }
+  uint64_t total = 0;
+  for (size_t i = 1; i < pairs.size(); i += 2) total += pairs[i];
+  // Cut before the block where the running count comes nearest each
+  // process's share.
+  std::vector<uint64_t> cut(size_t(size_) + 1, UINT64_MAX);
+  cut[0] = 0;
+  uint64_t below = 0;  // particles in blocks before block b
+  size_t b = 0, blocks = pairs.size() / 2;
+  for (int r = 1; r < size_; ++r) {
+    const double target = double(total) * r / size_;
+    while (b < blocks && double(below + pairs[2 * b + 1]) <= target) below += pairs[2 * b++ + 1];
+    // Inside block b the count passes the target: cut before or after it.
+    size_t c = b;
+    if (b < blocks && double(below + pairs[2 * b + 1]) - target < target - double(below)) c = b + 1;
+    cut[size_t(r)] = c < blocks ? pairs[2 * c] : UINT64_MAX;
+    cut[size_t(r)] = std::max(cut[size_t(r)], cut[size_t(r - 1)]);
+  }
+  cut_ = cut;
+  comm_seconds_ += MPI_Wtime() - t0;
+  if (!whole) {
+    migrate(sets);
+    return;
+  }
+  for (ParticleSet& s : sets) {
+    std::vector<uint8_t> gone(s.size());
+    for (size_t i = 0; i < s.size(); ++i) gone[i] = ownerOf(keyOf(s.x[i])) != rank_;
+    keepUnflagged(s, gone);
+  }
+}
+
+void MpiDomain::migrate(std::vector<ParticleSet>& sets) {
+  // Per destination: for each set, a count and that many particles.
+  const size_t n = size_t(size_);
+  std::vector<std::vector<unsigned char>> out(n);
+  std::vector<std::vector<uint32_t>> leaving(n);
+  for (ParticleSet& s : sets) {
+    for (auto& l : leaving) l.clear();
+    std::vector<uint8_t> gone(s.size(), 0);
+    bool any = false;
+    for (size_t i = 0; i < s.size(); ++i) {
+      const int owner = ownerOf(keyOf(s.x[i]));
+      if (owner == rank_) continue;
+      leaving[size_t(owner)].push_back(uint32_t(i));
+      gone[i] = 1;
+      any = true;
+    }
+    for (size_t r = 0; r < n; ++r) {
+      put(out[r], uint32_t(leaving[r].size()));
+      for (uint32_t i : leaving[r]) packParticle(s, i, out[r]);
+    }
+    if (any) keepUnflagged(s, gone);
+  }
+  const auto in = exchange(out);
+  // Arrivals join at the end, by sending process: the binner's stable sort
+  // then gives the same order on any run.
+  for (size_t r = 0; r < n; ++r) {
+    if (r == size_t(rank_) || in[r].empty()) continue;
+    const unsigned char* p = in[r].data();
+    for (ParticleSet& s : sets) {
+      const uint32_t k = take<uint32_t>(p);
+      for (uint32_t j = 0; j < k; ++j) unpackParticle(s, p);
+      received_ += k;
+    }
+  }
+}
+
+void MpiDomain::extendLayout(GridLayout& layout) {
+  const size_t n = size_t(size_);
+  for (auto& k : send_keys_) k.clear();
+  for (const uint64_t key : layout.grid_keys) {
+    const int owner = ownerOf(key);
+    if (owner != rank_) send_keys_[size_t(owner)].push_back(key);
+  }
+  std::vector<std::vector<unsigned char>> out(n);
+  for (size_t r = 0; r < n; ++r)
+    for (uint64_t key : send_keys_[r]) put(out[r], key);
+  const auto in = exchange(out);
+  std::vector<uint64_t> extra;
+  for (size_t r = 0; r < n; ++r) {
+    recv_keys_[r].clear();
+    const unsigned char* p = in[r].data();
+    for (size_t j = 0; j < in[r].size() / sizeof(uint64_t); ++j)
+      recv_keys_[r].push_back(take<uint64_t>(p));
+    extra.insert(extra.end(), recv_keys_[r].begin(), recv_keys_[r].end());
+  }
+  addGridBlocks(layout, std::move(extra));
+  auto indexOf = [&](uint64_t key) {
+    return uint32_t(std::lower_bound(layout.grid_keys.begin(), layout.grid_keys.end(), key) -
+                    layout.grid_keys.begin());
+  };
+  for (size_t r = 0; r < n; ++r) {
+    send_index_[r].clear();
+    recv_index_[r].clear();
+    for (uint64_t key : send_keys_[r]) send_index_[r].push_back(indexOf(key));
+    for (uint64_t key : recv_keys_[r]) recv_index_[r].push_back(indexOf(key));
+  }
+}
+
+void MpiDomain::sumGhosts(const GridLayout&, std::vector<GridNode>& grid) {
+  const size_t n = size_t(size_);
+  constexpr size_t kBytes = sizeof(GridNode) * kBlockNodes;
+  std::vector<std::vector<unsigned char>> out(n);
+  for (size_t r = 0; r < n; ++r) {
+    out[r].resize(send_index_[r].size() * kBytes);
+    for (size_t j = 0; j < send_index_[r].size(); ++j)
+      std::memcpy(out[r].data() + j * kBytes, &grid[size_t(send_index_[r][j]) * kBlockNodes],
+                  kBytes);
+  }
+  const auto in = exchange(out);
+  // Own sums first, then each sender's in process order: the same sums on
+  // every run with this many processes.
+  for (size_t r = 0; r < n; ++r) {
+    if (in[r].size() != recv_index_[r].size() * kBytes)
+      throw std::runtime_error("MPI: ghost blocks of unexpected size");
+    for (size_t j = 0; j < recv_index_[r].size(); ++j) {
+      const auto* src = reinterpret_cast<const GridNode*>(in[r].data() + j * kBytes);
+      GridNode* dst = &grid[size_t(recv_index_[r][j]) * kBlockNodes];
+      for (int k = 0; k < kBlockNodes; ++k) {
+        GridNode a;
+        std::memcpy(&a, src + k, sizeof(GridNode));
+        dst[k].m += a.m;
+        for (int d = 0; d < 3; ++d) dst[k].v[d] += a.v[d];
+      }
+    }
+  }
+}
+
+void MpiDomain::returnHalo(const GridLayout&, std::vector<GridNode>& grid) {
+  const size_t n = size_t(size_);
+  constexpr size_t kBytes = sizeof(GridNode) * kBlockNodes;
+  std::vector<std::vector<unsigned char>> out(n);
+  for (size_t r = 0; r < n; ++r) {
+    out[r].resize(recv_index_[r].size() * kBytes);
+    for (size_t j = 0; j < recv_index_[r].size(); ++j)
+      std::memcpy(out[r].data() + j * kBytes, &grid[size_t(recv_index_[r][j]) * kBlockNodes],
+                  kBytes);
+  }
+  const auto in = exchange(out);
+  for (size_t r = 0; r < n; ++r) {
+    if (in[r].size() != send_index_[r].size() * kBytes)
+      throw std::runtime_error("MPI: halo blocks of unexpected size");
+    for (size_t j = 0; j < send_index_[r].size(); ++j)
+      std::memcpy(&grid[size_t(send_index_[r][j]) * kBlockNodes], in[r].data() + j * kBytes,
+                  kBytes);
+  }
+}
+
+void MpiDomain::maxOverProcesses(std::vector<double>& values) {
+  const double t0 = MPI_Wtime();
+  check(MPI_Allreduce(MPI_IN_PLACE, values.data(), int(values.size()), MPI_DOUBLE, MPI_MAX, comm_),
+        "Allreduce");
+  comm_seconds_ += MPI_Wtime() - t0;
+}
+
+double MpiDomain::sum(double value) {
+  check(MPI_Allreduce(MPI_IN_PLACE, &value, 1, MPI_DOUBLE, MPI_SUM, comm_), "Allreduce");
+  return value;
+}
+
+std::vector<double> MpiDomain::gatherValues(double value) {
+  std::vector<double> all(rank_ == 0 ? size_t(size_) : 0);
+  check(MPI_Gather(&value, 1, MPI_DOUBLE, all.data(), 1, MPI_DOUBLE, 0, comm_), "Gather");
+  return all;
+}
+
+void MpiDomain::gather(const std::vector<ParticleSet>& sets, std::vector<ParticleSet>& all) {
+  const double t0 = MPI_Wtime();
+  all = emptyLike(sets);
+  for (size_t s = 0; s < sets.size(); ++s) {
+    std::vector<unsigned char> mine;
+    mine.reserve(sets[s].size() * recordBytes(sets[s]));
+    for (size_t i = 0; i < sets[s].size(); ++i) packParticle(sets[s], i, mine);
+    if (mine.size() > size_t(INT_MAX)) throw std::runtime_error("MPI: message over 2 GiB");
+    int bytes = int(mine.size());
+    std::vector<int> counts(rank_ == 0 ? size_t(size_) : 0), offsets(counts.size());
+    check(MPI_Gather(&bytes, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, comm_), "Gather");
+    std::vector<unsigned char> in;
+    if (rank_ == 0) {
+      size_t total = 0;
+      for (size_t r = 0; r < counts.size(); ++r) {
+        offsets[r] = int(total);
+        total += size_t(counts[r]);
+      }
+      if (total > size_t(INT_MAX)) throw std::runtime_error("MPI: gathered set over 2 GiB");
+      in.resize(total);
+    }
+    check(MPI_Gatherv(mine.data(), bytes, MPI_BYTE, in.data(), counts.data(), offsets.data(),
+                      MPI_BYTE, 0, comm_),
+          "Gatherv");
+    if (rank_ != 0) continue;
+    ParticleSet& out = all[s];
+    const size_t count = in.size() / recordBytes(sets[s]);
+    out.reserve(count);
+    const unsigned char* p = in.data();
+    for (size_t i = 0; i < count; ++i) unpackParticle(out, p);
+  }
+  comm_seconds_ += MPI_Wtime() - t0;
+}
+
+}  // namespace triad

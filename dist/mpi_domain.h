@@ -1,0 +1,72 @@
+#pragma once
+// One simulation over several MPI processes, by domain decomposition: the
+// grid's blocks, in the order of their keys (x, then y, then z), are cut
+// into one run per process so that each holds about as many particles; every
+// particle lives on the process that owns its block, and grid blocks that particles of one process
+// scatter into but another owns are summed by their owner, which sends the updated velocities back
+// (sim/mpm/domain.h says when).
+#include <mpi.h>
+
+#include <cstdint>
+#include <vector>
+
+#include "sim/mpm/domain.h"
+#include "sim/mpm/transfer.h"
+
+namespace triad {
+
+class MpiDomain final : public DomainExchange {
+ public:
+  MpiDomain(MPI_Comm comm, const TransferParams& params);
+
+  int rank() const { return rank_; }
+  int size() const { return size_; }
+
+  // Cuts the blocks so that each process holds about the same
+  // number of particles, from every process's particles, then moves each
+  // particle to its new owner. Called with every process holding the whole
+  // world, `whole` keeps only this process's share without any exchange.
+  void balance(std::vector<ParticleSet>& sets, bool whole = false);
+  // Every process's particles, set by set in process order, on process 0
+  // (`all` holds the sets' descriptions and no particles on the others).
+  void gather(const std::vector<ParticleSet>& sets, std::vector<ParticleSet>& all);
+  // Each process's value, in process order, on process 0.
+  std::vector<double> gatherValues(double value);
+  double sum(double value);
+  // The first block key each process owns (process 0 from 0).
+  const std::vector<uint64_t>& cuts() const { return cut_; }
+
+  // Time spent in exchanges with other processes, and bytes sent, so far.
+  double commSeconds() const { return comm_seconds_; }
+  uint64_t bytesSent() const { return bytes_sent_; }
+  // Particles that arrived here from other processes, so far.
+  uint64_t particlesReceived() const { return received_; }
+
+  void extendLayout(GridLayout& layout) override;
+  void sumGhosts(const GridLayout& layout, std::vector<GridNode>& grid) override;
+  void returnHalo(const GridLayout& layout, std::vector<GridNode>& grid) override;
+  void migrate(std::vector<ParticleSet>& sets) override;
+  void maxOverProcesses(std::vector<double>& values) override;
+
+ private:
+  uint64_t keyOf(const Vec3f& x) const;
+  int ownerOf(uint64_t key) const;
+  // Sends bytes[dest] to every process and returns what each sent here.
+  std::vector<std::vector<unsigned char>> exchange(
+      const std::vector<std::vector<unsigned char>>& out);
+
+  MPI_Comm comm_;
+  int rank_ = 0, size_ = 1;
+  TransferParams params_;
+  std::vector<uint64_t> cut_;  // size_ + 1 entries: process r owns keys [cut_[r], cut_[r + 1])
+  // Grid blocks this process scattered into that others own (per owner), and
+  // blocks it owns that others scattered into (per process): their keys and
+  // their indices in this step's layout.
+  std::vector<std::vector<uint64_t>> send_keys_, recv_keys_;
+  std::vector<std::vector<uint32_t>> send_index_, recv_index_;
+  double comm_seconds_ = 0.0;
+  uint64_t bytes_sent_ = 0;
+  uint64_t received_ = 0;
+};
+
+}  // namespace triad

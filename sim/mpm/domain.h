@@ -1,0 +1,39 @@
+#pragma once
+// The hooks through which one simulation runs split over several processes
+// (domain decomposition). The solver calls them at fixed points of its step;
+// an implementation (dist/, over MPI) moves grid data and particles between
+// the processes. sim/ itself stays free of any transport.
+#include <vector>
+
+#include "sim/mpm/sparse_grid.h"
+
+namespace triad {
+
+struct ParticleSet;
+
+class DomainExchange {
+ public:
+  virtual ~DomainExchange() = default;
+
+  // After binning: add to `layout` the grid blocks this process owns that
+  // other processes' particles scatter into, and learn which of its own
+  // grid blocks other processes own.
+  virtual void extendLayout(GridLayout& layout) = 0;
+  // After P2G: each block's partial sums go to the block's owner, which adds
+  // them to its own in a fixed order (its own first, then by process).
+  virtual void sumGhosts(const GridLayout& layout, std::vector<GridNode>& grid) = 0;
+  // After the grid update: owners send the updated nodes back to every
+  // process that scattered into them, for its G2P.
+  virtual void returnHalo(const GridLayout& layout, std::vector<GridNode>& grid) = 0;
+  // After G2P: particles move to the process that owns their block.
+  virtual void migrate(std::vector<ParticleSet>& sets) = 0;
+  // The largest of `values` (element-wise) over every process.
+  virtual void maxOverProcesses(std::vector<double>& values) = 0;
+};
+
+// Adds grid blocks (sorted or not) to a layout: grid_keys stays sorted and
+// the particle blocks' neighbour indices follow. Keys already present are
+// ignored.
+void addGridBlocks(GridLayout& layout, std::vector<uint64_t> keys);
+
+}  // namespace triad
