@@ -92,12 +92,14 @@ void RunSplit::record(RunRecord& rec, const World& world) {
   if (!domain_) return;
   const std::vector<double> counts = domain_->gatherValues(double(world.particleCount()));
   const std::vector<double> comm = domain_->gatherValues(domain_->commSeconds());
+  const std::vector<double> balance = domain_->gatherValues(domain_->balanceSeconds());
   const std::vector<double> bytes = domain_->gatherValues(double(domain_->bytesSent()));
   const std::vector<double> received = domain_->gatherValues(double(domain_->particlesReceived()));
   if (!root()) return;
   rec.mpi_ranks = size_;
   rec.mpi_particles.emplace_back(counts.begin(), counts.end());
   rec.mpi_comm_seconds = comm;
+  rec.mpi_balance_seconds = balance;
   rec.mpi_bytes_sent.assign(bytes.begin(), bytes.end());
   rec.mpi_received.assign(received.begin(), received.end());
 }

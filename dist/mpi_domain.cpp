@@ -215,6 +215,7 @@ void MpiDomain::balance(std::vector<ParticleSet>& sets, bool whole) {
   comm_seconds_ += MPI_Wtime() - t0;
   if (!whole) {
     migrate(sets);
+    balance_seconds_ += MPI_Wtime() - t0;
     return;
   }
   for (ParticleSet& s : sets) {

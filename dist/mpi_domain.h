@@ -39,6 +39,9 @@ class MpiDomain final : public DomainExchange {
   // Time spent in exchanges with other processes, and bytes sent, so far.
   double commSeconds() const { return comm_seconds_; }
   uint64_t bytesSent() const { return bytes_sent_; }
+  // Time spent moving the cut after the first split (counting, cutting and
+  // moving the particles), so far.
+  double balanceSeconds() const { return balance_seconds_; }
   // Particles that arrived here from other processes, so far.
   uint64_t particlesReceived() const { return received_; }
 
@@ -67,6 +70,7 @@ class MpiDomain final : public DomainExchange {
   double comm_seconds_ = 0.0;
   uint64_t bytes_sent_ = 0;
   uint64_t received_ = 0;
+  double balance_seconds_ = 0.0;
 };
 
 }  // namespace triad

@@ -31,6 +31,7 @@ void writeRunRecord(const std::string& path, const RunRecord& rec) {
     j["mpi"] = {{"ranks", rec.mpi_ranks},
                 {"particles_per_frame", rec.mpi_particles},
                 {"comm_seconds", rec.mpi_comm_seconds},
+                {"rebalance_seconds", rec.mpi_balance_seconds},
                 {"bytes_sent", rec.mpi_bytes_sent},
                 {"particles_received", rec.mpi_received}};
   j["quality"] = {{"preset", rec.quality.empty() ? nlohmann::ordered_json(nullptr)

@@ -60,11 +60,12 @@ struct RunRecord {
   int interrupted_frame = -1;
   std::string started_utc, ended_utc;
   // A run split over MPI processes: their number (0: not split), each
-  // frame's particles per process, and each process's seconds in exchanges,
-  // bytes sent and particles received from the others so far.
+  // frame's particles per process, and each process's seconds in exchanges
+  // (moving the cut included, and that alone), bytes sent and particles
+  // received from the others so far.
   int mpi_ranks = 0;
   std::vector<std::vector<uint64_t>> mpi_particles;
-  std::vector<double> mpi_comm_seconds;
+  std::vector<double> mpi_comm_seconds, mpi_balance_seconds;
   std::vector<uint64_t> mpi_bytes_sent, mpi_received;
 };
 
