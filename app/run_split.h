@@ -42,7 +42,8 @@ class RunSplit {
   double sum(double value);
   // The largest pending signal of any process (0: none).
   int anyInterrupt(int local);
-  // Adds this frame's particles per process and the exchanges' cost to the record (process 0).
+  // Adds this frame's particles per process and the exchanges' cost to the
+  // record (process 0); throws if the rigid bodies differ between processes.
   void record(RunRecord& rec, const World& world);
   void barrier();
   // Ends every process of the run at once (a failure on one of them).

@@ -349,6 +349,52 @@ void MpiDomain::maxOverProcesses(std::vector<double>& values) {
   comm_seconds_ += MPI_Wtime() - t0;
 }
 
+std::vector<unsigned char> MpiDomain::allGather(const std::vector<unsigned char>& mine) {
+  const double t0 = MPI_Wtime();
+  if (mine.size() > size_t(INT_MAX)) throw std::runtime_error("MPI: message over 2 GiB");
+  int bytes = int(mine.size());
+  std::vector<int> counts(static_cast<size_t>(size_)), offsets(static_cast<size_t>(size_));
+  check(MPI_Allgather(&bytes, 1, MPI_INT, counts.data(), 1, MPI_INT, comm_), "Allgather");
+  size_t total = 0;
+  for (size_t r = 0; r < counts.size(); ++r) {
+    offsets[r] = int(total);
+    total += size_t(counts[r]);
+  }
+  if (total > size_t(INT_MAX)) throw std::runtime_error("MPI: gathered data over 2 GiB");
+  std::vector<unsigned char> all(total);
+  check(MPI_Allgatherv(mine.data(), bytes, MPI_BYTE, all.data(), counts.data(), offsets.data(),
+                       MPI_BYTE, comm_),
+        "Allgatherv");
+  bytes_sent_ += mine.size() * size_t(size_ - 1);
+  comm_seconds_ += MPI_Wtime() - t0;
+  return all;
+}
+
+void MpiDomain::minGhosts(const GridLayout&, std::vector<float>& per_node) {
+  const size_t n = size_t(size_);
+  constexpr size_t kBytes = sizeof(float) * kBlockNodes;
+  std::vector<std::vector<unsigned char>> out(n);
+  for (size_t r = 0; r < n; ++r) {
+    out[r].resize(send_index_[r].size() * kBytes);
+    for (size_t j = 0; j < send_index_[r].size(); ++j)
+      std::memcpy(out[r].data() + j * kBytes, &per_node[size_t(send_index_[r][j]) * kBlockNodes],
+                  kBytes);
+  }
+  const auto in = exchange(out);
+  for (size_t r = 0; r < n; ++r) {
+    if (in[r].size() != recv_index_[r].size() * kBytes)
+      throw std::runtime_error("MPI: ghost values of unexpected size");
+    for (size_t j = 0; j < recv_index_[r].size(); ++j) {
+      float* dst = &per_node[size_t(recv_index_[r][j]) * kBlockNodes];
+      for (int k = 0; k < kBlockNodes; ++k) {
+        float a;
+        std::memcpy(&a, in[r].data() + j * kBytes + size_t(k) * sizeof(float), sizeof(float));
+        dst[k] = std::min(dst[k], a);
+      }
+    }
+  }
+}
+
 double MpiDomain::sum(double value) {
   check(MPI_Allreduce(MPI_IN_PLACE, &value, 1, MPI_DOUBLE, MPI_SUM, comm_), "Allreduce");
   return value;

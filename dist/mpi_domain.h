@@ -50,6 +50,9 @@ class MpiDomain final : public DomainExchange {
   void returnHalo(const GridLayout& layout, std::vector<GridNode>& grid) override;
   void migrate(std::vector<ParticleSet>& sets) override;
   void maxOverProcesses(std::vector<double>& values) override;
+  bool owns(uint64_t key) const override { return ownerOf(key) == rank_; }
+  std::vector<unsigned char> allGather(const std::vector<unsigned char>& mine) override;
+  void minGhosts(const GridLayout& layout, std::vector<float>& per_node) override;
 
  private:
   uint64_t keyOf(const Vec3f& x) const;

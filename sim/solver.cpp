@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <sstream>
 
@@ -153,6 +154,13 @@ void Solver::step(double dt) {
 void Solver::advanceTo(double t, const std::function<void(double)>& on_step) {
   while (world_.time < t) {
     double dt = stableDt();
+    if (domain_) {
+      // Split over processes, every process takes the same step, whatever
+      // each holds, so that their exchanges always meet.
+      std::vector<double> m{-dt};
+      domain_->maxOverProcesses(m);
+      dt = -m[0];
+    }
     if (dt < kMinDt) {
       std::ostringstream msg;
       msg << "step " << world_.steps << " at t = " << world_.time
@@ -566,10 +574,19 @@ void Solver::pushOutOfSolids(double dt) {
         }
       }
     }
-    for (int64_t c = 0; c < chunks; ++c)
+    // Split over processes: every process's chunks, in process order, so
+    // that the bodies change alike everywhere.
+    if (domain_ && nb > 0) {
+      std::vector<unsigned char> mine(partial.size() * sizeof(Push));
+      std::memcpy(mine.data(), static_cast<const void*>(partial.data()), mine.size());
+      const std::vector<unsigned char> all = domain_->allGather(mine);
+      partial.resize(all.size() / sizeof(Push));
+      std::memcpy(static_cast<void*>(partial.data()), all.data(), partial.size() * sizeof(Push));
+    }
+    for (size_t c = 0; c < partial.size() / std::max<size_t>(nb, 1); ++c)
       for (size_t bi = 0; bi < nb; ++bi) {
         RigidBody& b = world_.bodies[bi];
-        const Push& acc = partial[size_t(c) * nb + bi];
+        const Push& acc = partial[c * nb + bi];
         loads_[bi].impulse += acc.p;
         loads_[bi].moment += acc.l;
         if (b.fixed) continue;
@@ -585,6 +602,20 @@ void Solver::pushOutOfSolids(double dt) {
 void Solver::advanceSolids(double dt) {
   PhaseTimer timer(times_.solids);
   coupling_->gather(points_, params_);
+  if (domain_) {
+    // Split over processes, each point's change is the sum of what every
+    // process's nodes gave it, added in process order.
+    std::vector<unsigned char> mine(points_.dv.size() * sizeof(Vec3f));
+    std::memcpy(mine.data(), static_cast<const void*>(points_.dv.data()), mine.size());
+    const std::vector<unsigned char> all = domain_->allGather(mine);
+    std::fill(points_.dv.begin(), points_.dv.end(), Vec3f::Zero());
+    for (size_t at = 0; at + mine.size() <= all.size() && !mine.empty(); at += mine.size())
+      for (size_t q = 0; q < points_.dv.size(); ++q) {
+        Vec3f v;
+        std::memcpy(static_cast<void*>(&v), all.data() + at + q * sizeof(Vec3f), sizeof(Vec3f));
+        points_.dv[q] += v;
+      }
+  }
   // Each body takes the momentum and angular momentum its collision
   // particles gained. Only the change is read back: a body that touches no
   // material keeps its motion exactly, instead of losing spin to the

@@ -27,11 +27,29 @@ constexpr float kNoDistance = -1e29f;
 void GridCoupling::measureGaps(const std::vector<ParticleSet>& sets, const GridLayout& layout,
                                const TransferParams& p) {
   // No solid that moves: nothing to measure (fixed solids take no gap).
-  if (std::find(slot_moving_.begin(), slot_moving_.end(), uint8_t(1)) == slot_moving_.end()) {
+  // Split over processes, each takes part in the exchange below anyway.
+  const bool moving =
+      std::find(slot_moving_.begin(), slot_moving_.end(), uint8_t(1)) != slot_moving_.end();
+  if (!moving && !domain_) {
     gap_.clear();
     return;
   }
   gap_.assign(nodes_.size(), kFar);
+  if (moving) measureOwnGaps(sets, layout, p);
+  if (!domain_) return;
+  // The owner of a block takes the closest particle of every process.
+  std::vector<float> per_node(layout.gridBlocks() * size_t(kBlockNodes), kFar);
+  for (size_t s = 0; s < slot_block_.size(); ++s)
+    std::copy_n(&gap_[s * kBlockNodes], kBlockNodes,
+                &per_node[size_t(slot_block_[s]) * kBlockNodes]);
+  domain_->minGhosts(layout, per_node);
+  for (size_t s = 0; s < slot_block_.size(); ++s)
+    std::copy_n(&per_node[size_t(slot_block_[s]) * kBlockNodes], kBlockNodes,
+                &gap_[s * kBlockNodes]);
+}
+
+void GridCoupling::measureOwnGaps(const std::vector<ParticleSet>& sets, const GridLayout& layout,
+                                  const TransferParams& p) {
   // One parallel region for the eight colours (a barrier between them): a
   // region per colour cost a wake-up of the sleeping threads each.
   size_t widest = 0;

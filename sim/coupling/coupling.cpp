@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <map>
 
@@ -376,6 +377,7 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
       c.x = node0 + p.dx * node.cast<float>();
     }
   }
+  if (domain_) shareAcrossProcesses();
   stats_.shared_nodes = shared_.size();
   // What fixed solids take: the opposite of their nodes' impulses.
   node_impulse_.assign(pts.solids(), Vec3d::Zero());
@@ -490,22 +492,64 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
 
   stats_.passes = std::min(pass, passes);
   size_t collisions = 0;
-  for (const Shared& c : shared_) {
+  for (size_t k = 0; k < shared_.size(); ++k) {
+    const Shared& c = shared_[k];
     if (c.lambda <= 0.0f) continue;
     ++collisions;
-    GridNode& g = grid[c.g];
-    const Vec3f v = c.v_mpm + c.P / c.m_mpm;
-    for (int d = 0; d < 3; ++d) g.v[d] = v[d];
+    // Split over processes, every copy of the node takes its velocity.
+    if (c.g != kNotHere) {
+      GridNode& g = grid[c.g];
+      const Vec3f v = c.v_mpm + c.P / c.m_mpm;
+      for (int d = 0; d < 3; ++d) g.v[d] = v[d];
+    }
     // The opposite impulse goes to the solid: a rigid body's own node to the
-    // body, at the node; any other solid's node to its points (gather).
+    // body, at the node; any other solid's node to its points (gather),
+    // from its owner alone where the run is split.
     if (c.fixed)
       addNodeLoad(c.fixed_solid, c, -c.P);
     else if (!combined && c.solid >= 0)
       addNodeLoad(c.solid, c, -c.P);
-    else if (!combined)
+    else if (!combined && c.i != kNotHere && (!domain_ || mine_[k]))
       delta_[c.i] = -c.P / c.m_vol;
   }
   stats_.collisions = collisions;
+}
+
+void GridCoupling::shareAcrossProcesses() {
+  // The node's key and offset, then the node as solved here.
+  constexpr size_t kRecord = sizeof(uint64_t) + sizeof(uint32_t) + sizeof(Shared);
+  std::vector<unsigned char> mine;
+  for (const Shared& c : shared_) {
+    const uint64_t key = (*layout_keys_)[c.g / kBlockNodes];
+    if (!domain_->owns(key)) continue;  // its owner has the complete sums
+    const uint32_t k = c.g % kBlockNodes;
+    const size_t at = mine.size();
+    mine.resize(at + kRecord);
+    std::memcpy(mine.data() + at, &key, sizeof(key));
+    std::memcpy(mine.data() + at + sizeof(key), &k, sizeof(k));
+    std::memcpy(mine.data() + at + sizeof(key) + sizeof(k), static_cast<const void*>(&c),
+                sizeof(Shared));
+  }
+  const std::vector<unsigned char> all = domain_->allGather(mine);
+  shared_.clear();
+  mine_.clear();
+  for (size_t at = 0; at + kRecord <= all.size(); at += kRecord) {
+    uint64_t key;
+    uint32_t k;
+    Shared c;
+    std::memcpy(&key, all.data() + at, sizeof(key));
+    std::memcpy(&k, all.data() + at + sizeof(key), sizeof(k));
+    std::memcpy(static_cast<void*>(&c), all.data() + at + sizeof(key) + sizeof(k), sizeof(Shared));
+    const auto it = std::lower_bound(layout_keys_->begin(), layout_keys_->end(), key);
+    c.g = c.i = kNotHere;
+    if (it != layout_keys_->end() && *it == key) {
+      const size_t gb = size_t(it - layout_keys_->begin());
+      c.g = uint32_t(gb * kBlockNodes + k);
+      if (block_slot_[gb] >= 0) c.i = uint32_t(size_t(block_slot_[gb]) * kBlockNodes + k);
+    }
+    shared_.push_back(c);
+    mine_.push_back(domain_->owns(key) ? 1 : 0);
+  }
 }
 
 void GridCoupling::addNodeLoad(int32_t solid, const Shared& c, const Vec3f& impulse) {

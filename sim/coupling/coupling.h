@@ -10,9 +10,10 @@
 #include <vector>
 
 #include "sim/math.h"
-#include "sim/scene_desc.h"
+#include "sim/mpm/domain.h"
 #include "sim/mpm/sparse_grid.h"
 #include "sim/mpm/transfer.h"
+#include "sim/scene_desc.h"
 
 namespace triad {
 
@@ -62,6 +63,12 @@ struct CouplingStats {
 class GridCoupling {
  public:
   explicit GridCoupling(const SolverDesc& solver) : solver_(solver) {}
+
+  // Split over processes (sim/mpm/domain.h): each node's collision is its
+  // owner's, and every process solves the collision of all of them, so the
+  // bodies take the same impulses everywhere. Three grids, solids
+  // read back from the impulses (the defaults) only.
+  void setDomain(DomainExchange* domain) { domain_ = domain; }
 
   // Contract steps 1 and 4: scatter the points' mass, momentum and normals
   // (and their solids' friction and fixedness) onto the MPM grid's nodes.
@@ -160,12 +167,23 @@ class GridCoupling {
   std::array<std::vector<uint32_t>, 8> colour_blocks_;
   std::vector<uint64_t> point_key_;    // per point: base block key
   void buildFixed(const SolidPoints& points, const TransferParams& p);
+  // measureGaps' sums over this process's particles.
+  void measureOwnGaps(const std::vector<ParticleSet>& sets, const GridLayout& layout,
+                      const TransferParams& p);
   void addNodeLoad(int32_t solid, const Shared& c, const Vec3f& impulse);
   // The normal impulses at moving rigid bodies' nodes (moving_), solved
   // for each body's velocity change (dV, dW) by Newton's method; returns
   // the largest number of iterations a body took.
   int solveBodyNormals(const SolidPoints& points, int max_iterations, std::vector<Vec3f>& dV,
                        std::vector<Vec3f>& dW);
+
+  // Split over processes: shared_ becomes every process's owned shared
+  // nodes, in process order, each mapped to this process's copy of its
+  // node where it has one (kNotHere otherwise); mine_ marks its own.
+  void shareAcrossProcesses();
+  static constexpr uint32_t kNotHere = 0xffffffffu;
+  DomainExchange* domain_ = nullptr;
+  std::vector<uint8_t> mine_;
 
   std::vector<Shared> shared_;
   std::vector<uint32_t> moving_;  // shared nodes of one moving rigid body

@@ -29,6 +29,16 @@ class DomainExchange {
   virtual void migrate(std::vector<ParticleSet>& sets) = 0;
   // The largest of `values` (element-wise) over every process.
   virtual void maxOverProcesses(std::vector<double>& values) = 0;
+
+  // What solids need (they are whole on every process: each process steps
+  // the same bodies from the same sums, so they stay the same everywhere).
+  // Whether this process owns grid block `key`.
+  virtual bool owns(uint64_t key) const = 0;
+  // Every process's bytes, concatenated in process order, on every process.
+  virtual std::vector<unsigned char> allGather(const std::vector<unsigned char>& mine) = 0;
+  // Per grid node values (layout.gridBlocks() * 64): the owner of each
+  // block takes the smallest of its own and every other process's value.
+  virtual void minGhosts(const GridLayout& layout, std::vector<float>& per_node) = 0;
 };
 
 // Adds grid blocks (sorted or not) to a layout: grid_keys stays sorted and
