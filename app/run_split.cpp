@@ -90,8 +90,9 @@ int RunSplit::anyInterrupt(int local) {
 
 void RunSplit::record(RunRecord& rec, const World& world) {
   if (!domain_) return;
-  // Every process steps the same bodies from the same sums: their states
-  // must agree bit for bit, or the split has a bug. Checked every frame.
+  // Every process steps the same bodies and elastic solids from the same
+  // sums: their states must agree bit for bit, or the split has a bug.
+  // Checked every frame.
   std::vector<unsigned char> mine;
   for (const RigidBody& b : world.bodies) {
     const RigidState& s = b.state;
@@ -100,10 +101,15 @@ void RunSplit::record(RunRecord& rec, const World& world) {
       mine.insert(mine.end(), p, p + (d == s.q_principal.coeffs().data() ? 4 : 3) * sizeof(double));
     }
   }
+  for (const ElasticSolid& e : world.elastics)
+    for (const std::vector<Vec3d>* a : {&e.fem.x, &e.fem.v}) {
+      const auto* p = reinterpret_cast<const unsigned char*>(a->data());
+      mine.insert(mine.end(), p, p + a->size() * sizeof(Vec3d));
+    }
   const std::vector<unsigned char> all = domain_->allGather(mine);
   for (int r = 1; r < size_; ++r)
     if (!std::equal(mine.begin(), mine.end(), all.begin() + ptrdiff_t(size_t(r) * mine.size())))
-      throw std::runtime_error("the rigid bodies' states differ between process 0 and process " +
+      throw std::runtime_error("the solids' states differ between process 0 and process " +
                                std::to_string(r) + " at t = " + std::to_string(world.time) +
                                " s: the split run went wrong (please report it)");
   const std::vector<double> counts = domain_->gatherValues(double(world.particleCount()));
@@ -160,7 +166,6 @@ void RunSplit::abort(int code) {
 std::string RunSplit::unsupported(const World& world) const {
   if (!active()) return "";
   const SceneDesc& s = world.scene;
-  if (!world.elastics.empty()) return "elastic solids";
   if (!world.bodies.empty() && s.solver.coupling == CouplingScheme::SingleGrid)
     return "solver.coupling \"single\" with solids";
   if (!world.bodies.empty() && s.solver.solid_readback == SolidReadback::Combined)

@@ -595,7 +595,7 @@ void Solver::pushOutOfSolids(double dt) {
       }
   }
   // Elastic solids: particles inside their deformed meshes.
-  for (ElasticSolid& e : world_.elastics) moved += pushParticlesOut(e, world_.sets, dt);
+  for (ElasticSolid& e : world_.elastics) moved += pushParticlesOut(e, world_.sets, dt, domain_);
   pushed_out_ = moved;
 }
 

@@ -32,6 +32,8 @@ class DomainExchange {
 
   // What solids need (they are whole on every process: each process steps
   // the same bodies from the same sums, so they stay the same everywhere).
+  // This process's number (0 .. processes - 1).
+  virtual int process() const = 0;
   // Whether this process owns grid block `key`.
   virtual bool owns(uint64_t key) const = 0;
   // Every process's bytes, concatenated in process order, on every process.

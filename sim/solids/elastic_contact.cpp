@@ -6,10 +6,12 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 
-#include "sim/solids/fem.h"
+#include "sim/mpm/domain.h"
 #include "sim/mpm/particles.h"
 #include "sim/mpm/sparse_grid.h"
+#include "sim/solids/fem.h"
 
 namespace triad {
 
@@ -327,16 +329,18 @@ size_t pushOut(ElasticSolid& a, ElasticSolid& b, double dt) {
 
 }  // namespace
 
-size_t pushParticlesOut(ElasticSolid& b, std::vector<ParticleSet>& sets, double dt) {
+size_t pushParticlesOut(ElasticSolid& b, std::vector<ParticleSet>& sets, double dt,
+                        DomainExchange* domain) {
   FemBody& fb = b.fem;
   const EndOfStep end(fb, dt);
   size_t moved = 0;
   for (ParticleSet& set : sets) {
     const double mp = double(set.mass);
     // Found in parallel (each particle on its own, against the solid's
-    // velocities before this pass), then applied in particle order, each
-    // against the velocities the ones before it left: the solid's nodes
-    // take the same sums on any number of threads.
+    // velocities before this pass), then applied in the order of the
+    // particles' ids, each against the velocities the ones before it left:
+    // the solid's nodes take the same sums on any number of threads or
+    // processes.
     // Chunks of fixed size, dealt out as threads come free: the particles
     // near a solid lie together in the sorted order, so equal shares per
     // thread left one thread with all of them.
@@ -352,25 +356,47 @@ size_t pushParticlesOut(ElasticSolid& b, std::vector<ParticleSet>& sets, double 
                             set.v[size_t(p)].cast<double>(), Vec3d::Zero(), dt, pen))
           part[size_t(c)].emplace_back(uint32_t(p), pen);
       }
-    for (const auto& hits : part)
-      for (const auto& [p, pen] : hits) {
-        const Vec3d x = set.x[p].cast<double>(), v = set.v[p].cast<double>();
-        // Onto the face; the approach velocity goes to the solid's nodes
-        // under the particle, by barycentric weight.
-        set.x[p] = (x - pen.depth * pen.normal).cast<float>();
-        const auto& n = fb.mesh.tets[size_t(pen.tet)];
-        Vec3d vb = Vec3d::Zero();
-        for (int k = 0; k < 4; ++k) vb += pen.w[size_t(k)] * fb.v[size_t(n[k])];
-        const double vn = pen.normal.dot(v - vb);
-        if (vn < 0.0) {
-          set.v[p] = (v - vn * pen.normal).cast<float>();
-          for (int k = 0; k < 4; ++k)
-            if (!fb.pinned[size_t(n[k])])
-              fb.v[size_t(n[k])] +=
-                  (pen.w[size_t(k)] * mp * vn / fb.mass[size_t(n[k])]) * pen.normal;
-        }
-        ++moved;
+    // Every hit with the particle's state: split over processes, every
+    // process's.
+    struct Hit {
+      int32_t process;
+      uint32_t p, id;
+      Penetration pen;
+      Vec3d x, v;
+    };
+    const int32_t me = domain ? domain->process() : 0;
+    std::vector<Hit> hits;
+    for (const auto& chunk : part)
+      for (const auto& [p, pen] : chunk)
+        hits.push_back({me, p, set.id[p], pen, set.x[p].cast<double>(), set.v[p].cast<double>()});
+    if (domain) {
+      std::vector<unsigned char> mine(hits.size() * sizeof(Hit));
+      std::memcpy(mine.data(), static_cast<const void*>(hits.data()), mine.size());
+      const std::vector<unsigned char> all = domain->allGather(mine);
+      hits.resize(all.size() / sizeof(Hit));
+      std::memcpy(static_cast<void*>(hits.data()), all.data(), hits.size() * sizeof(Hit));
+    }
+    // In the order of the particles' ids: the same sequence however the
+    // particles are stored, or split between processes.
+    std::sort(hits.begin(), hits.end(), [](const Hit& l, const Hit& r) { return l.id < r.id; });
+    for (const Hit& h : hits) {
+      const bool own = h.process == me;
+      const Penetration& pen = h.pen;
+      // Onto the face; the approach velocity goes to the solid's nodes
+      // under the particle, by barycentric weight.
+      if (own) set.x[h.p] = (h.x - pen.depth * pen.normal).cast<float>();
+      const auto& n = fb.mesh.tets[size_t(pen.tet)];
+      Vec3d vb = Vec3d::Zero();
+      for (int k = 0; k < 4; ++k) vb += pen.w[size_t(k)] * fb.v[size_t(n[k])];
+      const double vn = pen.normal.dot(h.v - vb);
+      if (vn < 0.0) {
+        if (own) set.v[h.p] = (h.v - vn * pen.normal).cast<float>();
+        for (int k = 0; k < 4; ++k)
+          if (!fb.pinned[size_t(n[k])])
+            fb.v[size_t(n[k])] += (pen.w[size_t(k)] * mp * vn / fb.mass[size_t(n[k])]) * pen.normal;
       }
+      moved += own ? 1 : 0;
+    }
   }
   return moved;
 }

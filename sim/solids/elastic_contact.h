@@ -35,7 +35,11 @@ ElasticContactStats resolveElasticContacts(std::vector<ElasticSolid>& solids, do
 // solid's mesh at the end of the step are moved onto its boundary, through
 // the face they came in by (else the nearest), and lose their approach
 // velocity, which the solid's nodes under them take. Returns how many moved.
+// Split over processes (`domain`), every process applies every process's
+// hits in process order, so that the solid changes alike everywhere.
 struct ParticleSet;
-size_t pushParticlesOut(ElasticSolid& solid, std::vector<ParticleSet>& sets, double dt);
+class DomainExchange;
+size_t pushParticlesOut(ElasticSolid& solid, std::vector<ParticleSet>& sets, double dt,
+                        DomainExchange* domain = nullptr);
 
 }  // namespace triad
