@@ -266,13 +266,16 @@ int runScene(const RunOptions& options_in) {
     s.times = solver.phaseTimes();
     s.steps = runSteps();
     s.particles = world.particleCount();
+    for (const Source& src : world.sources) s.emitted.emplace_back(src.name, src.emitted);
+    for (const Sink& sink : world.sinks) s.removed.emplace_back(sink.name, sink.removed);
     if (split.active()) {
       // Every process's share (a collective: all processes call this together).
       s.particles = size_t(split.sum(double(s.particles)));
       s.steps.particle_steps = uint64_t(split.sum(double(s.steps.particle_steps)));
+      // Each process's sinks remove its own particles; sources make the
+      // same count on every process.
+      for (auto& [name, n] : s.removed) n = uint64_t(split.sum(double(n)));
     }
-    for (const Source& src : world.sources) s.emitted.emplace_back(src.name, src.emitted);
-    for (const Sink& sink : world.sinks) s.removed.emplace_back(sink.name, sink.removed);
     s.time = world.time;
     s.particle_bytes = world.particleBytes();
     s.grid_bytes = solver.bytes();

@@ -170,8 +170,6 @@ std::string RunSplit::unsupported(const World& world) const {
     return "solver.coupling \"single\" with solids";
   if (!world.bodies.empty() && s.solver.solid_readback == SolidReadback::Combined)
     return "solver.solid_readback \"combined\"";
-  if (!world.sources.empty()) return "sources (emit)";
-  if (!world.sinks.empty()) return "sinks";
   if (s.solver.sleep.enabled) return "solver.sleep";
   if (s.solver.transfer == TransferScheme::Flip) return "solver.transfer \"flip\"";
   return "";

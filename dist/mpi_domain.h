@@ -52,6 +52,7 @@ class MpiDomain final : public DomainExchange {
   void maxOverProcesses(std::vector<double>& values) override;
   bool owns(uint64_t key) const override { return ownerOf(key) == rank_; }
   int process() const override { return rank_; }
+  bool ownsPoint(const Vec3f& x) const override { return owns(keyOf(x)); }
   std::vector<unsigned char> allGather(const std::vector<unsigned char>& mine) override;
   void minGhosts(const GridLayout& layout, std::vector<float>& per_node) override;
 

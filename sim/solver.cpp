@@ -184,8 +184,8 @@ void Solver::advanceTo(double t, const std::function<void(double)>& on_step) {
 
 void Solver::emitSources() {
   PhaseTimer timer(times_.shot);
-  const size_t made =
-      emitFromSources(world_.sources, world_.sets, world_.scene.domain, world_.time, world_.next_id);
+  const size_t made = emitFromSources(world_.sources, world_.sets, world_.scene.domain, world_.time,
+                                      world_.next_id, domain_);
   // New particles move at their source's speed from this step on.
   if (made > 0)
     max_speed_ = std::max(max_speed_, float(sourceSpeed(world_.sources, world_.time)));

@@ -34,8 +34,9 @@ class DomainExchange {
   // the same bodies from the same sums, so they stay the same everywhere).
   // This process's number (0 .. processes - 1).
   virtual int process() const = 0;
-  // Whether this process owns grid block `key`.
+  // Whether this process owns grid block `key`, or the block of a particle at x.
   virtual bool owns(uint64_t key) const = 0;
+  virtual bool ownsPoint(const Vec3f& x) const = 0;
   // Every process's bytes, concatenated in process order, on every process.
   virtual std::vector<unsigned char> allGather(const std::vector<unsigned char>& mine) = 0;
   // Per grid node values (layout.gridBlocks() * 64): the owner of each

@@ -4,9 +4,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 
 #include "sim/errors.h"
+#include "sim/mpm/domain.h"
 #include "sim/mpm/sampling.h"
 
 namespace triad {
@@ -113,7 +115,8 @@ int32_t siteAt(const Source& s, const Vec3d& g) {
 }
 
 size_t emitFromSources(std::vector<Source>& sources, std::vector<ParticleSet>& sets,
-                       const DomainDesc& domain, double t, uint32_t& next_id) {
+                       const DomainDesc& domain, double t, uint32_t& next_id,
+                       DomainExchange* split) {
   size_t made = 0;
   const Vec3d dmin = toVec(domain.min);
   const double dx = domain.dx;
@@ -150,6 +153,35 @@ size_t emitFromSources(std::vector<Source>& sources, std::vector<ParticleSet>& s
       if (set.id[i] >= holder[size_t(q)]) continue;
       holder[size_t(q)] = set.id[i];
       offset[size_t(q)] = p - s.sites[size_t(q)].cast<double>();
+    }
+    if (split) {
+      // Every process's survey, in process order: the holder of lowest id
+      // wins, whichever process has it.
+      const size_t n = s.sites.size();
+      const size_t bytes = sizeof(uint64_t) + n * (sizeof(uint32_t) + sizeof(Vec3d));
+      std::vector<unsigned char> mine(bytes);
+      const uint64_t count = inside;
+      std::memcpy(mine.data(), &count, sizeof(count));
+      std::memcpy(mine.data() + sizeof(count), holder.data(), n * sizeof(uint32_t));
+      std::memcpy(mine.data() + sizeof(count) + n * sizeof(uint32_t),
+                  static_cast<const void*>(offset.data()), n * sizeof(Vec3d));
+      const std::vector<unsigned char> all = split->allGather(mine);
+      inside = 0;
+      std::fill(holder.begin(), holder.end(), std::numeric_limits<uint32_t>::max());
+      for (size_t at = 0; at + bytes <= all.size(); at += bytes) {
+        uint64_t c;
+        std::memcpy(&c, all.data() + at, sizeof(c));
+        inside += size_t(c);
+        for (size_t q = 0; q < n; ++q) {
+          uint32_t held;
+          std::memcpy(&held, all.data() + at + sizeof(c) + q * sizeof(uint32_t), sizeof(held));
+          if (held >= holder[q]) continue;
+          holder[q] = held;
+          std::memcpy(static_cast<void*>(&offset[q]),
+                      all.data() + at + sizeof(c) + n * sizeof(uint32_t) + q * sizeof(Vec3d),
+                      sizeof(Vec3d));
+        }
+      }
     }
     // The shape holds at most as many particles as it has sites: where the
     // flow bunches them (material accelerating under gravity meets the new,
@@ -191,7 +223,9 @@ size_t emitFromSources(std::vector<Source>& sources, std::vector<ParticleSet>& s
       const Vec3d r = R * (at - s.placement.pivot);
       const Vec3d x = centre + r;
       const Vec3d v = v_emit + pose.velocity + pose.omega.cross(r);
-      set.push(x.cast<float>(), v.cast<float>(), next_id++, uint16_t(s.object));
+      if (!split || split->ownsPoint(x.cast<float>()))
+        set.push(x.cast<float>(), v.cast<float>(), next_id, uint16_t(s.object));
+      ++next_id;
       ++s.emitted;
       ++made;
     }

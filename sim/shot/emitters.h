@@ -73,9 +73,13 @@ Source makeSource(int object, const ObjectDesc& obj, size_t set, std::vector<Vec
 
 // Fills the empty sites of every source active at t with new particles of
 // consecutive ids from next_id. Returns the particles made. Throws
-// SimulationError when ids would pass 2^32.
+// SimulationError when ids would pass 2^32. Split over processes (`split`),
+// every process finds the same empty sites from all processes' particles
+// and makes the same particles, and keeps those in its own blocks.
+class DomainExchange;
 size_t emitFromSources(std::vector<Source>& sources, std::vector<ParticleSet>& sets,
-                       const DomainDesc& domain, double t, uint32_t& next_id);
+                       const DomainDesc& domain, double t, uint32_t& next_id,
+                       DomainExchange* split = nullptr);
 
 // Removes the particles inside any sink at time t, keeping the others'
 // order. Returns the particles removed.
