@@ -171,7 +171,6 @@ std::string RunSplit::unsupported(const World& world) const {
   if (!world.bodies.empty() && s.solver.solid_readback == SolidReadback::Combined)
     return "solver.solid_readback \"combined\"";
   if (s.solver.sleep.enabled) return "solver.sleep";
-  if (s.solver.transfer == TransferScheme::Flip) return "solver.transfer \"flip\"";
   return "";
 }
 

@@ -129,10 +129,16 @@ void Solver::step(double dt) {
     if (domain_) domain_->extendLayout(layout_);  // blocks others scatter into
     computeStress(fdt);
     particlesToGrid();              // contract step 2
-    if (domain_) domain_->sumGhosts(layout_, grid_);  // partial sums to their owners
+    if (domain_) {                  // partial sums to their owners
+      domain_->sumGhosts(layout_, grid_);
+      if (flip_) domain_->sumGhosts(layout_, flip_grid_);
+    }
     if (solids) scatterSolids();    // steps 1, 3, 4
     updateGrid(fdt);                // step 5
-    if (domain_) domain_->returnHalo(layout_, grid_);  // owners' velocities back
+    if (domain_) {                  // owners' velocities back
+      domain_->returnHalo(layout_, grid_);
+      if (flip_) domain_->returnHalo(layout_, flip_grid_);
+    }
     if (solids) collideSolids();    // step 6
     gridToParticles(fdt);           // step 7
     if (solids) pushOutOfSolids(dt);  // no particle stays inside a body

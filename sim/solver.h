@@ -72,9 +72,8 @@ class Solver {
 
   // Runs this world's particles as one part of a simulation split over
   // several processes (sim/mpm/domain.h); the world must already hold only
-  // the particles this process owns. Rigid bodies and colliders are whole
-  // on every process; scenes with elastic solids, sources, sinks, sleep or
-  // FLIP do not run split.
+  // the particles this process owns. Solids and sources are whole on every
+  // process; scenes with sleep do not run split.
   void setDomain(DomainExchange* domain) {
     domain_ = domain;
     if (coupling_) coupling_->setDomain(domain);

@@ -531,15 +531,31 @@ TEST_F(Mpi, SourcesAndSinksMakeAndRemoveWhatOneProcessDoes) {
   }
 }
 
+// FLIP's velocity changes are summed and sent back as the velocities are.
+TEST_F(Mpi, FlipAgreesWithOneProcess) {
+  const fs::path dir = test::tempDir("flip");
+  json j = everyMaterial(4);
+  j["solver"] = {{"transfer", "flip"}, {"flip_ratio", 0.95}};
+  const std::string scene = test::writeScene(dir, j);
+  const test::CliResult one = run(dir, scene, dir / "one", "OMP_NUM_THREADS=1");
+  ASSERT_EQ(one.status, 0) << one.err;
+  const test::CliResult two = run(dir, scene, dir / "np2", mpirun(2));
+  ASSERT_EQ(two.status, 0) << two.err;
+  const double size = std::sqrt(0.64 * 0.64 + 0.4 * 0.4 + 0.2 * 0.2);
+  EXPECT_LE(largestDifference(readParticles(framePly(dir / "np2", 4)),
+                              readParticles(framePly(dir / "one", 4))),
+            1e-5 * size);
+}
+
 // What the split does not run yet is refused by name, once, before any work.
-TEST_F(Mpi, FlipIsRefusedByName) {
+TEST_F(Mpi, SleepIsRefusedByName) {
   const fs::path dir = test::tempDir("refused");
   json j = everyMaterial(2);
-  j["solver"] = {{"transfer", "flip"}};
+  j["solver"] = {{"sleep", {{"speed", 0.01}, {"delay", 0.1}}}};
   const std::string scene = test::writeScene(dir, j);
   const test::CliResult r = run(dir, scene, dir / "out", mpirun(2));
   EXPECT_EQ(r.status, 2) << r.err;
-  EXPECT_NE(r.err.find("flip"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("solver.sleep"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find(scene), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(dir / "out" / "particles"));
 }
