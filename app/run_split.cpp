@@ -137,6 +137,8 @@ void RunSplit::abort(int code) {
 
 #else  // built without MPI
 
+class MpiDomain {};  // never made: a run is never split
+
 RunSplit::RunSplit() {
   if (launchedProcesses() > 1)
     throw std::runtime_error(
