@@ -205,6 +205,7 @@ int runScene(const RunOptions& options_in) {
       removeFramesAfter(out_dir, scene.frames.count);
       removeOtherBodies(out_dir, world);
     }
+    split.barrier();  // the others read the folder only once it is tidied
     if (options.resume) {
       if (auto rp = resumeFromCheckpoint(scene, out_dir, checkpoint_key, world, solver)) {
         start_frame = resumed_from = rp->frame;
