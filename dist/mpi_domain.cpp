@@ -293,53 +293,47 @@ void MpiDomain::extendLayout(GridLayout& layout) {
   }
 }
 
-void MpiDomain::sumGhosts(const GridLayout&, std::vector<GridNode>& grid) {
-  const size_t n = size_t(size_);
-  constexpr size_t kBytes = sizeof(GridNode) * kBlockNodes;
-  std::vector<std::vector<unsigned char>> out(n);
-  for (size_t r = 0; r < n; ++r) {
-    out[r].resize(send_index_[r].size() * kBytes);
-    for (size_t j = 0; j < send_index_[r].size(); ++j)
-      std::memcpy(out[r].data() + j * kBytes, &grid[size_t(send_index_[r][j]) * kBlockNodes],
-                  kBytes);
+template <typename T, typename F>
+void MpiDomain::exchangeBlocks(std::vector<T>& per_node,
+                               const std::vector<std::vector<uint32_t>>& send,
+                               const std::vector<std::vector<uint32_t>>& receive, F&& combine) {
+  constexpr size_t kBytes = sizeof(T) * kBlockNodes;
+  std::vector<std::vector<unsigned char>> out(static_cast<size_t>(size_));
+  for (size_t r = 0; r < out.size(); ++r) {
+    out[r].resize(send[r].size() * kBytes);
+    for (size_t j = 0; j < send[r].size(); ++j)
+      std::memcpy(out[r].data() + j * kBytes,
+                  static_cast<const void*>(&per_node[size_t(send[r][j]) * kBlockNodes]), kBytes);
   }
   const auto in = exchange(out);
-  // Own sums first, then each sender's in process order: the same sums on
-  // every run with this many processes.
-  for (size_t r = 0; r < n; ++r) {
-    if (in[r].size() != recv_index_[r].size() * kBytes)
-      throw std::runtime_error("MPI: ghost blocks of unexpected size");
-    for (size_t j = 0; j < recv_index_[r].size(); ++j) {
-      const auto* src = reinterpret_cast<const GridNode*>(in[r].data() + j * kBytes);
-      GridNode* dst = &grid[size_t(recv_index_[r][j]) * kBlockNodes];
+  // In process order: the same results on every run with this many processes.
+  for (size_t r = 0; r < in.size(); ++r) {
+    if (in[r].size() != receive[r].size() * kBytes)
+      throw std::runtime_error("MPI: grid blocks of unexpected size");
+    for (size_t j = 0; j < receive[r].size(); ++j)
       for (int k = 0; k < kBlockNodes; ++k) {
-        GridNode a;
-        std::memcpy(&a, src + k, sizeof(GridNode));
-        dst[k].m += a.m;
-        for (int d = 0; d < 3; ++d) dst[k].v[d] += a.v[d];
+        T value;
+        std::memcpy(static_cast<void*>(&value), in[r].data() + j * kBytes + size_t(k) * sizeof(T),
+                    sizeof(T));
+        combine(per_node[size_t(receive[r][j]) * kBlockNodes + size_t(k)], value);
       }
-    }
   }
 }
 
+void MpiDomain::sumGhosts(const GridLayout&, std::vector<GridNode>& grid) {
+  // The owner adds every other process's sums to its own.
+  exchangeBlocks(grid, send_index_, recv_index_, [](GridNode& g, const GridNode& a) {
+    g.m += a.m;
+    for (int d = 0; d < 3; ++d) g.v[d] += a.v[d];
+  });
+}
+
 void MpiDomain::returnHalo(const GridLayout&, std::vector<GridNode>& grid) {
-  const size_t n = size_t(size_);
-  constexpr size_t kBytes = sizeof(GridNode) * kBlockNodes;
-  std::vector<std::vector<unsigned char>> out(n);
-  for (size_t r = 0; r < n; ++r) {
-    out[r].resize(recv_index_[r].size() * kBytes);
-    for (size_t j = 0; j < recv_index_[r].size(); ++j)
-      std::memcpy(out[r].data() + j * kBytes, &grid[size_t(recv_index_[r][j]) * kBlockNodes],
-                  kBytes);
-  }
-  const auto in = exchange(out);
-  for (size_t r = 0; r < n; ++r) {
-    if (in[r].size() != send_index_[r].size() * kBytes)
-      throw std::runtime_error("MPI: halo blocks of unexpected size");
-    for (size_t j = 0; j < send_index_[r].size(); ++j)
-      std::memcpy(&grid[size_t(send_index_[r][j]) * kBlockNodes], in[r].data() + j * kBytes,
-                  kBytes);
-  }
+  exchangeBlocks(grid, recv_index_, send_index_, [](GridNode& g, const GridNode& a) { g = a; });
+}
+
+void MpiDomain::minGhosts(const GridLayout&, std::vector<float>& per_node) {
+  exchangeBlocks(per_node, send_index_, recv_index_, [](float& g, float a) { g = std::min(g, a); });
 }
 
 void MpiDomain::maxOverProcesses(std::vector<double>& values) {
@@ -368,31 +362,6 @@ std::vector<unsigned char> MpiDomain::allGather(const std::vector<unsigned char>
   bytes_sent_ += mine.size() * size_t(size_ - 1);
   comm_seconds_ += MPI_Wtime() - t0;
   return all;
-}
-
-void MpiDomain::minGhosts(const GridLayout&, std::vector<float>& per_node) {
-  const size_t n = size_t(size_);
-  constexpr size_t kBytes = sizeof(float) * kBlockNodes;
-  std::vector<std::vector<unsigned char>> out(n);
-  for (size_t r = 0; r < n; ++r) {
-    out[r].resize(send_index_[r].size() * kBytes);
-    for (size_t j = 0; j < send_index_[r].size(); ++j)
-      std::memcpy(out[r].data() + j * kBytes, &per_node[size_t(send_index_[r][j]) * kBlockNodes],
-                  kBytes);
-  }
-  const auto in = exchange(out);
-  for (size_t r = 0; r < n; ++r) {
-    if (in[r].size() != recv_index_[r].size() * kBytes)
-      throw std::runtime_error("MPI: ghost values of unexpected size");
-    for (size_t j = 0; j < recv_index_[r].size(); ++j) {
-      float* dst = &per_node[size_t(recv_index_[r][j]) * kBlockNodes];
-      for (int k = 0; k < kBlockNodes; ++k) {
-        float a;
-        std::memcpy(&a, in[r].data() + j * kBytes + size_t(k) * sizeof(float), sizeof(float));
-        dst[k] = std::min(dst[k], a);
-      }
-    }
-  }
 }
 
 double MpiDomain::sum(double value) {

@@ -59,6 +59,11 @@ class MpiDomain final : public DomainExchange {
  private:
   uint64_t keyOf(const Vec3f& x) const;
   int ownerOf(uint64_t key) const;
+  // Sends the nodes of blocks send[r] of `per_node` (64 per block) to each
+  // process r, and combines what each sent here into blocks receive[r].
+  template <typename T, typename F>
+  void exchangeBlocks(std::vector<T>& per_node, const std::vector<std::vector<uint32_t>>& send,
+                      const std::vector<std::vector<uint32_t>>& receive, F&& combine);
   // Sends bytes[dest] to every process and returns what each sent here.
   std::vector<std::vector<unsigned char>> exchange(
       const std::vector<std::vector<unsigned char>>& out);

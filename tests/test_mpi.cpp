@@ -82,22 +82,39 @@ json runJson(const fs::path& out) {
   return json::parse(test::slurp(out / "run.json"));
 }
 
+// The materials the scenes below share.
+json sandMaterial() {
+  return {{"model", "drucker_prager"},
+          {"density", 1600},
+          {"youngs_modulus", 2e5},
+          {"poisson_ratio", 0.3},
+          {"friction_angle_deg", 32}};
+}
+json jellyMaterial() {
+  return {{"model", "fixed_corotated"},
+          {"density", 1000},
+          {"youngs_modulus", 4e4},
+          {"poisson_ratio", 0.3}};
+}
+
+// An elastic solid's mesh vertices from its bodies/NAME.FFFF.ply (binary
+// floats x y z after the header).
+std::vector<float> meshVertices(const fs::path& ply) {
+  const std::string bytes = test::slurp(ply);
+  const size_t end = bytes.find("end_header\n") + 11;
+  const size_t n = std::stoul(bytes.substr(bytes.find("element vertex ") + 15));
+  std::vector<float> v(3 * n);
+  std::memcpy(v.data(), bytes.data() + end, v.size() * sizeof(float));
+  return v;
+}
+
 // Blocks of every MPM material side by side, falling onto the floor.
 json everyMaterial(int frames) {
   json j = test::baseScene("mpi_materials", {0.64, 0.4, 0.2}, 0.02);
   j["frames"]["count"] = frames;
   j["materials"] = {{"water", {{"model", "water"}, {"density", 1000}, {"bulk_modulus", 1e5}}},
-                    {"sand",
-                     {{"model", "drucker_prager"},
-                      {"density", 1600},
-                      {"youngs_modulus", 2e5},
-                      {"poisson_ratio", 0.3},
-                      {"friction_angle_deg", 32}}},
-                    {"jelly",
-                     {{"model", "fixed_corotated"},
-                      {"density", 1000},
-                      {"youngs_modulus", 4e4},
-                      {"poisson_ratio", 0.3}}},
+                    {"sand", sandMaterial()},
+                    {"jelly", jellyMaterial()},
                     {"snow",
                      {{"model", "snow"},
                       {"density", 400},
@@ -188,11 +205,7 @@ TEST_F(Mpi, MomentumCrossesTheCutAndParticlesMigrate) {
   json j = test::baseScene("mpi_momentum", {0.8, 0.32, 0.24}, 0.02);
   j["frames"]["count"] = 6;
   j["gravity"] = {0, 0, 0};
-  j["materials"] = {{"jelly",
-                     {{"model", "fixed_corotated"},
-                      {"density", 1000},
-                      {"youngs_modulus", 4e4},
-                      {"poisson_ratio", 0.3}}}};
+  j["materials"] = {{"jelly", jellyMaterial()}};
   j["objects"] = {{{"name", "moving"},
                    {"kind", "mpm"},
                    {"material", "jelly"},
@@ -283,12 +296,7 @@ TEST_F(Mpi, RigidBodiesAndCollidersAgreeWithOneProcess) {
   json j = test::baseScene("mpi_bodies", {0.64, 0.4, 0.24}, 0.02);
   j["frames"]["count"] = 8;
   j["materials"] = {{"water", {{"model", "water"}, {"density", 1000}, {"bulk_modulus", 1e5}}},
-                    {"sand",
-                     {{"model", "drucker_prager"},
-                      {"density", 1600},
-                      {"youngs_modulus", 2e5},
-                      {"poisson_ratio", 0.3},
-                      {"friction_angle_deg", 32}}}};
+                    {"sand", sandMaterial()}};
   j["objects"] = {
       {{"name", "pool"},
        {"kind", "mpm"},
@@ -362,17 +370,7 @@ TEST_F(Mpi, ElasticSolidAgreesWithOneProcess) {
   const fs::path dir = test::tempDir("elastic");
   json j = test::baseScene("mpi_elastic", {0.48, 0.4, 0.24}, 0.02);
   j["frames"]["count"] = 8;
-  j["materials"] = {{"sand",
-                     {{"model", "drucker_prager"},
-                      {"density", 1600},
-                      {"youngs_modulus", 2e5},
-                      {"poisson_ratio", 0.3},
-                      {"friction_angle_deg", 32}}},
-                    {"jelly",
-                     {{"model", "fixed_corotated"},
-                      {"density", 1000},
-                      {"youngs_modulus", 4e4},
-                      {"poisson_ratio", 0.3}}}};
+  j["materials"] = {{"sand", sandMaterial()}, {"jelly", jellyMaterial()}};
   j["objects"] = {{{"name", "bed"},
                    {"kind", "mpm"},
                    {"material", "sand"},
@@ -388,14 +386,8 @@ TEST_F(Mpi, ElasticSolidAgreesWithOneProcess) {
   const std::string scene = test::writeScene(dir, j);
   const test::CliResult one = run(dir, scene, dir / "one", "OMP_NUM_THREADS=1");
   ASSERT_EQ(one.status, 0) << one.err;
-  // The cube's mesh vertices (bodies/cube.0008.ply, binary floats after the header).
   auto vertices = [](const fs::path& out) {
-    const std::string bytes = test::slurp(out / "bodies" / "cube.0008.ply");
-    const size_t end = bytes.find("end_header\n") + 11;
-    const size_t n = std::stoul(bytes.substr(bytes.find("element vertex ") + 15));
-    std::vector<float> v(3 * n);
-    std::memcpy(v.data(), bytes.data() + end, v.size() * sizeof(float));
-    return v;
+    return meshVertices(out / "bodies" / "cube.0008.ply");
   };
   const std::vector<float> ref = vertices(dir / "one");
   ASSERT_EQ(ref.size(), 24u);
@@ -448,14 +440,7 @@ TEST_F(Mpi, ParticlesPushedOutOfAnElasticSolidMoveItAlikeEverywhere) {
   ASSERT_EQ(one.status, 0) << one.err;
   const test::CliResult two = run(dir, scene, dir / "np2", mpirun(2));
   ASSERT_EQ(two.status, 0) << two.err;
-  auto vertices = [](const fs::path& ply) {
-    const std::string bytes = test::slurp(ply);
-    const size_t end = bytes.find("end_header\n") + 11;
-    const size_t n = std::stoul(bytes.substr(bytes.find("element vertex ") + 15));
-    std::vector<float> v(3 * n);
-    std::memcpy(v.data(), bytes.data() + end, v.size() * sizeof(float));
-    return v;
-  };
+  const auto vertices = meshVertices;
   const std::vector<float> a = vertices(dir / "one/bodies/block.0003.ply"),
                            b = vertices(dir / "np2/bodies/block.0003.ply"),
                            start = vertices(dir / "one/bodies/block.0000.ply");
