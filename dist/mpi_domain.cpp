@@ -169,18 +169,11 @@ void MpiDomain::balance(std::vector<ParticleSet>& sets, bool whole) {
   }
   // Every process's, merged: the whole material's blocks in key order.
   if (!whole) {
-    int mine = int(pairs.size());
-    std::vector<int> counts(static_cast<size_t>(size_)), offsets(static_cast<size_t>(size_));
-    check(MPI_Allgather(&mine, 1, MPI_INT, counts.data(), 1, MPI_INT, comm_), "Allgather");
-    size_t total = 0;
-    for (size_t r = 0; r < counts.size(); ++r) {
-      offsets[r] = int(total);
-      total += size_t(counts[r]);
-    }
-    std::vector<uint64_t> all(total);
-    check(MPI_Allgatherv(pairs.data(), mine, MPI_UINT64_T, all.data(), counts.data(),
-                         offsets.data(), MPI_UINT64_T, comm_),
-          "Allgatherv");
+    std::vector<unsigned char> mine(pairs.size() * sizeof(uint64_t));
+    if (!mine.empty()) std::memcpy(mine.data(), pairs.data(), mine.size());
+    const std::vector<unsigned char> bytes = allGather(mine);
+    std::vector<uint64_t> all(bytes.size() / sizeof(uint64_t));
+    if (!all.empty()) std::memcpy(all.data(), bytes.data(), all.size() * sizeof(uint64_t));
     std::vector<std::pair<uint64_t, uint64_t>> merged;
     for (size_t i = 0; i + 1 < all.size(); i += 2) merged.emplace_back(all[i], all[i + 1]);
     std::sort(merged.begin(), merged.end());

@@ -584,10 +584,12 @@ void Solver::pushOutOfSolids(double dt) {
     // that the bodies change alike everywhere.
     if (domain_ && nb > 0) {
       std::vector<unsigned char> mine(partial.size() * sizeof(Push));
-      std::memcpy(mine.data(), static_cast<const void*>(partial.data()), mine.size());
+      if (!mine.empty())
+        std::memcpy(mine.data(), static_cast<const void*>(partial.data()), mine.size());
       const std::vector<unsigned char> all = domain_->allGather(mine);
       partial.resize(all.size() / sizeof(Push));
-      std::memcpy(static_cast<void*>(partial.data()), all.data(), partial.size() * sizeof(Push));
+      if (!partial.empty())
+        std::memcpy(static_cast<void*>(partial.data()), all.data(), partial.size() * sizeof(Push));
     }
     for (size_t c = 0; c < partial.size() / std::max<size_t>(nb, 1); ++c)
       for (size_t bi = 0; bi < nb; ++bi) {
@@ -612,7 +614,8 @@ void Solver::advanceSolids(double dt) {
     // Split over processes, each point's change is the sum of what every
     // process's nodes gave it, added in process order.
     std::vector<unsigned char> mine(points_.dv.size() * sizeof(Vec3f));
-    std::memcpy(mine.data(), static_cast<const void*>(points_.dv.data()), mine.size());
+    if (!mine.empty())
+      std::memcpy(mine.data(), static_cast<const void*>(points_.dv.data()), mine.size());
     const std::vector<unsigned char> all = domain_->allGather(mine);
     std::fill(points_.dv.begin(), points_.dv.end(), Vec3f::Zero());
     for (size_t at = 0; at + mine.size() <= all.size() && !mine.empty(); at += mine.size())
