@@ -169,11 +169,7 @@ void MpiDomain::balance(std::vector<ParticleSet>& sets, bool whole) {
   }
   // Every process's, merged: the whole material's blocks in key order.
   if (!whole) {
-    std::vector<unsigned char> mine(pairs.size() * sizeof(uint64_t));
-    if (!mine.empty()) std::memcpy(mine.data(), pairs.data(), mine.size());
-    const std::vector<unsigned char> bytes = allGather(mine);
-    std::vector<uint64_t> all(bytes.size() / sizeof(uint64_t));
-    if (!all.empty()) std::memcpy(all.data(), bytes.data(), all.size() * sizeof(uint64_t));
+    const std::vector<uint64_t> all = allGatherValues(*this, pairs);
     std::vector<std::pair<uint64_t, uint64_t>> merged;
     for (size_t i = 0; i + 1 < all.size(); i += 2) merged.emplace_back(all[i], all[i + 1]);
     std::sort(merged.begin(), merged.end());

@@ -582,15 +582,7 @@ void Solver::pushOutOfSolids(double dt) {
     }
     // Split over processes: every process's chunks, in process order, so
     // that the bodies change alike everywhere.
-    if (domain_ && nb > 0) {
-      std::vector<unsigned char> mine(partial.size() * sizeof(Push));
-      if (!mine.empty())
-        std::memcpy(mine.data(), static_cast<const void*>(partial.data()), mine.size());
-      const std::vector<unsigned char> all = domain_->allGather(mine);
-      partial.resize(all.size() / sizeof(Push));
-      if (!partial.empty())
-        std::memcpy(static_cast<void*>(partial.data()), all.data(), partial.size() * sizeof(Push));
-    }
+    if (domain_ && nb > 0) partial = allGatherValues(*domain_, partial);
     for (size_t c = 0; c < partial.size() / std::max<size_t>(nb, 1); ++c)
       for (size_t bi = 0; bi < nb; ++bi) {
         RigidBody& b = world_.bodies[bi];
@@ -613,17 +605,11 @@ void Solver::advanceSolids(double dt) {
   if (domain_) {
     // Split over processes, each point's change is the sum of what every
     // process's nodes gave it, added in process order.
-    std::vector<unsigned char> mine(points_.dv.size() * sizeof(Vec3f));
-    if (!mine.empty())
-      std::memcpy(mine.data(), static_cast<const void*>(points_.dv.data()), mine.size());
-    const std::vector<unsigned char> all = domain_->allGather(mine);
+    const std::vector<Vec3f> all = allGatherValues(*domain_, points_.dv);
     std::fill(points_.dv.begin(), points_.dv.end(), Vec3f::Zero());
-    for (size_t at = 0; at + mine.size() <= all.size() && !mine.empty(); at += mine.size())
-      for (size_t q = 0; q < points_.dv.size(); ++q) {
-        Vec3f v;
-        std::memcpy(static_cast<void*>(&v), all.data() + at + q * sizeof(Vec3f), sizeof(Vec3f));
-        points_.dv[q] += v;
-      }
+    for (size_t at = 0; at + points_.dv.size() <= all.size() && !points_.dv.empty();
+         at += points_.dv.size())
+      for (size_t q = 0; q < points_.dv.size(); ++q) points_.dv[q] += all[at + q];
   }
   // Each body takes the momentum and angular momentum its collision
   // particles gained. Only the change is read back: a body that touches no

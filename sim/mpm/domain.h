@@ -3,6 +3,7 @@
 // (domain decomposition). The solver calls them at fixed points of its step;
 // an implementation (dist/, over MPI) moves grid data and particles between
 // the processes. sim/ itself stays free of any transport.
+#include <cstring>
 #include <vector>
 
 #include "sim/mpm/sparse_grid.h"
@@ -43,6 +44,19 @@ class DomainExchange {
   // block takes the smallest of its own and every other process's value.
   virtual void minGhosts(const GridLayout& layout, std::vector<float>& per_node) = 0;
 };
+
+// Every process's elements of `mine`, concatenated in process order, on
+// every process (T trivially copyable).
+template <typename T>
+std::vector<T> allGatherValues(DomainExchange& domain, const std::vector<T>& mine) {
+  std::vector<unsigned char> bytes(mine.size() * sizeof(T));
+  if (!bytes.empty())
+    std::memcpy(bytes.data(), static_cast<const void*>(mine.data()), bytes.size());
+  const std::vector<unsigned char> all = domain.allGather(bytes);
+  std::vector<T> out(all.size() / sizeof(T));
+  if (!out.empty()) std::memcpy(static_cast<void*>(out.data()), all.data(), out.size() * sizeof(T));
+  return out;
+}
 
 // Adds grid blocks (sorted or not) to a layout: grid_keys stays sorted and
 // the particle blocks' neighbour indices follow. Keys already present are

@@ -369,15 +369,7 @@ size_t pushParticlesOut(ElasticSolid& b, std::vector<ParticleSet>& sets, double 
     for (const auto& chunk : part)
       for (const auto& [p, pen] : chunk)
         hits.push_back({me, p, set.id[p], pen, set.x[p].cast<double>(), set.v[p].cast<double>()});
-    if (domain) {
-      std::vector<unsigned char> mine(hits.size() * sizeof(Hit));
-      if (!mine.empty())
-        std::memcpy(mine.data(), static_cast<const void*>(hits.data()), mine.size());
-      const std::vector<unsigned char> all = domain->allGather(mine);
-      hits.resize(all.size() / sizeof(Hit));
-      if (!hits.empty())
-        std::memcpy(static_cast<void*>(hits.data()), all.data(), hits.size() * sizeof(Hit));
-    }
+    if (domain) hits = allGatherValues(*domain, hits);
     // In the order of the particles' ids: the same sequence however the
     // particles are stored, or split between processes.
     std::sort(hits.begin(), hits.end(), [](const Hit& l, const Hit& r) { return l.id < r.id; });
