@@ -532,6 +532,41 @@ TEST_F(Mpi, FlipAgreesWithOneProcess) {
             1e-5 * size);
 }
 
+// SIGTERM to every process (as a batch system sends it) stops them all at
+// the same step: the frames written stay, the record says why, and the run
+// resumes under another count to the single process's end.
+TEST_F(Mpi, SigtermStopsEveryProcessAtTheSameStepAndTheRunResumes) {
+  const fs::path dir = test::tempDir("sigterm");
+  const int frames = 24;
+  const std::string scene = test::writeScene(dir, everyMaterial(frames));
+  const fs::path out = dir / "split";
+  const std::string cmd = "(" + mpirun(2) + " " + TRIAD_EXE + " run " + scene + " --out " +
+                          out.string() + " --quiet --no-probe >" + (dir / "run.txt").string() +
+                          " 2>&1 &) ; for i in $(seq 1 600); do "
+                          "[ -f " +
+                          framePly(out, 2).string() +
+                          " ] && break; sleep 0.05; done; pkill -TERM -f '^" + TRIAD_EXE + " run " +
+                          scene + "'; for i in $(seq 1 600); do pgrep -f '^mpirun .* run " + scene +
+                          "' >/dev/null || exit 0; sleep 0.05; done; exit 1";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << test::slurp(dir / "run.txt");
+  const json stopped = runJson(out);
+  ASSERT_TRUE(stopped.contains("interrupted")) << stopped.dump(2);
+  EXPECT_EQ(stopped["interrupted"]["signal"], "SIGTERM");
+  const int written = stopped["frames"]["written"].get<int>();
+  EXPECT_GE(written, 3);
+  EXPECT_LT(written, frames + 1);
+  EXPECT_FALSE(stopped["finished"].get<bool>());
+  const test::CliResult resumed = run(dir, scene, out, mpirun(3), "--resume");
+  ASSERT_EQ(resumed.status, 0) << resumed.err;
+  const test::CliResult one = run(dir, scene, dir / "one", "OMP_NUM_THREADS=1");
+  ASSERT_EQ(one.status, 0) << one.err;
+  EXPECT_TRUE(runJson(out)["finished"].get<bool>());
+  const double size = std::sqrt(0.64 * 0.64 + 0.4 * 0.4 + 0.2 * 0.2);
+  EXPECT_LE(largestDifference(readParticles(framePly(out, frames)),
+                              readParticles(framePly(dir / "one", frames))),
+            1e-5 * size);
+}
+
 // What the split does not run yet is refused by name, once, before any work.
 TEST_F(Mpi, SleepIsRefusedByName) {
   const fs::path dir = test::tempDir("refused");
