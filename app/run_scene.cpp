@@ -446,9 +446,16 @@ int runScene(const RunOptions& options_in) {
                  out_dir.c_str());
     try {
       // Split, the other processes may wait in an exchange: no collective here.
+      // Steps are the same on every process; the particle counts stay those
+      // of the last frame written.
       if (split.active()) {
         SimState local;
         local.times = solver.phaseTimes();
+        local.steps = runSteps();
+        local.steps.particle_steps = rec.particle_steps;
+        local.particles = rec.particles;
+        local.emitted = rec.emitted;
+        local.removed = rec.removed;
         local.time = world.time;
         record(local, false, msg);
       } else {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstdlib>
+#include <cstring>
 #include <stdexcept>
 
 #include "export/run_record.h"
@@ -61,18 +62,9 @@ std::shared_ptr<const World> RunSplit::gather(const World& world) {
   std::vector<ParticleSet> all;
   domain_->gather(world.sets, all);
   if (!root()) return nullptr;
-  // A copy of everything else (bodies, sources: none run split) with the
-  // gathered particles in place of this process's share.
-  auto copy = std::make_shared<World>();
-  copy->scene = world.scene;
-  copy->bodies = world.bodies;
-  copy->elastics = world.elastics;
-  copy->sources = world.sources;
-  copy->sinks = world.sinks;
-  copy->object_particles = world.object_particles;
-  copy->time = world.time;
-  copy->steps = world.steps;
-  copy->next_id = world.next_id;
+  // Everything else is whole on every process: a copy of this one's world
+  // with the gathered particles in place of its share.
+  auto copy = std::make_shared<World>(world);
   copy->sets = std::move(all);
   return copy;
 }
@@ -93,35 +85,40 @@ void RunSplit::record(RunRecord& rec, const World& world) {
   // Every process steps the same bodies and elastic solids from the same
   // sums: their states must agree bit for bit, or the split has a bug.
   // Checked every frame.
-  std::vector<unsigned char> mine;
+  std::vector<double> state;
   for (const RigidBody& b : world.bodies) {
     const RigidState& s = b.state;
-    for (const double* d : {s.x.data(), s.v.data(), s.L.data(), s.q_principal.coeffs().data()}) {
-      const auto* p = reinterpret_cast<const unsigned char*>(d);
-      mine.insert(mine.end(), p, p + (d == s.q_principal.coeffs().data() ? 4 : 3) * sizeof(double));
-    }
+    state.insert(state.end(), s.x.data(), s.x.data() + 3);
+    state.insert(state.end(), s.v.data(), s.v.data() + 3);
+    state.insert(state.end(), s.L.data(), s.L.data() + 3);
+    state.insert(state.end(), s.q_principal.coeffs().data(), s.q_principal.coeffs().data() + 4);
   }
   for (const ElasticSolid& e : world.elastics)
-    for (const std::vector<Vec3d>* a : {&e.fem.x, &e.fem.v}) {
-      const auto* p = reinterpret_cast<const unsigned char*>(a->data());
-      mine.insert(mine.end(), p, p + a->size() * sizeof(Vec3d));
-    }
-  const std::vector<unsigned char> all = domain_->allGather(mine);
-  for (int r = 1; r < size_; ++r)
-    if (!std::equal(mine.begin(), mine.end(), all.begin() + ptrdiff_t(size_t(r) * mine.size())))
+    for (const std::vector<Vec3d>* a : {&e.fem.x, &e.fem.v})
+      for (const Vec3d& x : *a) state.insert(state.end(), x.data(), x.data() + 3);
+  const std::vector<double> states = allGatherValues(*domain_, state);
+  for (int r = 1; r < size_ && !state.empty(); ++r)
+    if (std::memcmp(state.data(), states.data() + size_t(r) * state.size(),
+                    state.size() * sizeof(double)) != 0)
       throw std::runtime_error("the solids' states differ between process 0 and process " +
                                std::to_string(r) + " at t = " + std::to_string(world.time) +
                                " s: the split run went wrong (please report it)");
-  const std::vector<double> counts = domain_->gatherValues(double(world.particleCount()));
-  const std::vector<double> comm = domain_->gatherValues(domain_->commSeconds());
-  const std::vector<double> balance = domain_->gatherValues(domain_->balanceSeconds());
-  const std::vector<double> bytes = domain_->gatherValues(double(domain_->bytesSent()));
-  const std::vector<double> received = domain_->gatherValues(double(domain_->particlesReceived()));
+  // Each process's figures for run.json, five per process.
+  const std::vector<double> mine{double(world.particleCount()), domain_->commSeconds(),
+                                 domain_->balanceSeconds(), double(domain_->bytesSent()),
+                                 double(domain_->particlesReceived())};
+  const std::vector<double> all = allGatherValues(*domain_, mine);
   if (!root()) return;
+  auto column = [&](size_t k) {
+    std::vector<double> c;
+    for (size_t r = 0; r < size_t(size_); ++r) c.push_back(all[r * mine.size() + k]);
+    return c;
+  };
+  const std::vector<double> counts = column(0), bytes = column(3), received = column(4);
   rec.mpi_ranks = size_;
   rec.mpi_particles.emplace_back(counts.begin(), counts.end());
-  rec.mpi_comm_seconds = comm;
-  rec.mpi_balance_seconds = balance;
+  rec.mpi_comm_seconds = column(1);
+  rec.mpi_balance_seconds = column(2);
   rec.mpi_bytes_sent.assign(bytes.begin(), bytes.end());
   rec.mpi_received.assign(received.begin(), received.end());
 }

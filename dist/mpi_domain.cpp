@@ -358,12 +358,6 @@ double MpiDomain::sum(double value) {
   return value;
 }
 
-std::vector<double> MpiDomain::gatherValues(double value) {
-  std::vector<double> all(rank_ == 0 ? size_t(size_) : 0);
-  check(MPI_Gather(&value, 1, MPI_DOUBLE, all.data(), 1, MPI_DOUBLE, 0, comm_), "Gather");
-  return all;
-}
-
 void MpiDomain::gather(const std::vector<ParticleSet>& sets, std::vector<ParticleSet>& all) {
   const double t0 = MPI_Wtime();
   all = emptyLike(sets);

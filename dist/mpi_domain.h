@@ -30,11 +30,7 @@ class MpiDomain final : public DomainExchange {
   // Every process's particles, set by set in process order, on process 0
   // (`all` holds the sets' descriptions and no particles on the others).
   void gather(const std::vector<ParticleSet>& sets, std::vector<ParticleSet>& all);
-  // Each process's value, in process order, on process 0.
-  std::vector<double> gatherValues(double value);
   double sum(double value);
-  // The first block key each process owns (process 0 from 0).
-  const std::vector<uint64_t>& cuts() const { return cut_; }
 
   // Time spent in exchanges with other processes, and bytes sent, so far.
   double commSeconds() const { return comm_seconds_; }

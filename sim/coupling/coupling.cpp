@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 #include <limits>
 #include <map>
 
@@ -516,39 +515,31 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
 }
 
 void GridCoupling::shareAcrossProcesses() {
-  // The node's key and offset, then the node as solved here.
-  constexpr size_t kRecord = sizeof(uint64_t) + sizeof(uint32_t) + sizeof(Shared);
-  std::vector<unsigned char> mine;
-  for (const Shared& c : shared_) {
-    const uint64_t key = (*layout_keys_)[c.g / kBlockNodes];
-    if (!domain_->owns(key)) continue;  // its owner has the complete sums
-    const uint32_t k = c.g % kBlockNodes;
-    const size_t at = mine.size();
-    mine.resize(at + kRecord);
-    std::memcpy(mine.data() + at, &key, sizeof(key));
-    std::memcpy(mine.data() + at + sizeof(key), &k, sizeof(k));
-    std::memcpy(mine.data() + at + sizeof(key) + sizeof(k), static_cast<const void*>(&c),
-                sizeof(Shared));
-  }
-  const std::vector<unsigned char> all = domain_->allGather(mine);
-  shared_.clear();
-  mine_.clear();
-  for (size_t at = 0; at + kRecord <= all.size(); at += kRecord) {
+  // A node as solved here, with where it lies (block key, node in block).
+  struct Record {
     uint64_t key;
     uint32_t k;
     Shared c;
-    std::memcpy(&key, all.data() + at, sizeof(key));
-    std::memcpy(&k, all.data() + at + sizeof(key), sizeof(k));
-    std::memcpy(static_cast<void*>(&c), all.data() + at + sizeof(key) + sizeof(k), sizeof(Shared));
-    const auto it = std::lower_bound(layout_keys_->begin(), layout_keys_->end(), key);
+  };
+  std::vector<Record> mine;
+  for (const Shared& c : shared_) {
+    const uint64_t key = (*layout_keys_)[c.g / kBlockNodes];
+    if (domain_->owns(key)) mine.push_back({key, c.g % kBlockNodes, c});  // complete sums
+  }
+  const std::vector<Record> all = allGatherValues(*domain_, mine);
+  shared_.clear();
+  mine_.clear();
+  for (const Record& r : all) {
+    Shared c = r.c;
     c.g = c.i = kNotHere;
-    if (it != layout_keys_->end() && *it == key) {
+    const auto it = std::lower_bound(layout_keys_->begin(), layout_keys_->end(), r.key);
+    if (it != layout_keys_->end() && *it == r.key) {
       const size_t gb = size_t(it - layout_keys_->begin());
-      c.g = uint32_t(gb * kBlockNodes + k);
-      if (block_slot_[gb] >= 0) c.i = uint32_t(size_t(block_slot_[gb]) * kBlockNodes + k);
+      c.g = uint32_t(gb * kBlockNodes + r.k);
+      if (block_slot_[gb] >= 0) c.i = uint32_t(size_t(block_slot_[gb]) * kBlockNodes + r.k);
     }
     shared_.push_back(c);
-    mine_.push_back(domain_->owns(key) ? 1 : 0);
+    mine_.push_back(domain_->owns(r.key) ? 1 : 0);
   }
 }
 

@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 #include <limits>
 
 #include "sim/errors.h"
@@ -157,30 +156,22 @@ size_t emitFromSources(std::vector<Source>& sources, std::vector<ParticleSet>& s
     if (split) {
       // Every process's survey, in process order: the holder of lowest id
       // wins, whichever process has it.
-      const size_t n = s.sites.size();
-      const size_t bytes = sizeof(uint64_t) + n * (sizeof(uint32_t) + sizeof(Vec3d));
-      std::vector<unsigned char> mine(bytes);
-      const uint64_t count = inside;
-      std::memcpy(mine.data(), &count, sizeof(count));
-      std::memcpy(mine.data() + sizeof(count), holder.data(), n * sizeof(uint32_t));
-      std::memcpy(mine.data() + sizeof(count) + n * sizeof(uint32_t),
-                  static_cast<const void*>(offset.data()), n * sizeof(Vec3d));
-      const std::vector<unsigned char> all = split->allGather(mine);
+      struct Held {
+        uint32_t id;
+        Vec3d offset;
+      };
+      std::vector<Held> mine(s.sites.size());
+      for (size_t q = 0; q < mine.size(); ++q) mine[q] = {holder[q], offset[q]};
+      const std::vector<Held> all = allGatherValues(*split, mine);
+      const std::vector<uint64_t> counts = allGatherValues(*split, std::vector<uint64_t>{inside});
       inside = 0;
+      for (uint64_t c : counts) inside += size_t(c);
       std::fill(holder.begin(), holder.end(), std::numeric_limits<uint32_t>::max());
-      for (size_t at = 0; at + bytes <= all.size(); at += bytes) {
-        uint64_t c;
-        std::memcpy(&c, all.data() + at, sizeof(c));
-        inside += size_t(c);
-        for (size_t q = 0; q < n; ++q) {
-          uint32_t held;
-          std::memcpy(&held, all.data() + at + sizeof(c) + q * sizeof(uint32_t), sizeof(held));
-          if (held >= holder[q]) continue;
-          holder[q] = held;
-          std::memcpy(static_cast<void*>(&offset[q]),
-                      all.data() + at + sizeof(c) + n * sizeof(uint32_t) + q * sizeof(Vec3d),
-                      sizeof(Vec3d));
-        }
+      for (size_t k = 0; k < all.size(); ++k) {
+        const size_t q = k % mine.size();
+        if (all[k].id >= holder[q]) continue;
+        holder[q] = all[k].id;
+        offset[q] = all[k].offset;
       }
     }
     // The shape holds at most as many particles as it has sites: where the
