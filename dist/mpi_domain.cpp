@@ -13,7 +13,8 @@ namespace {
 
 // Bytes of one particle of `set` in a message: every attribute it uses.
 size_t recordBytes(const ParticleSet& set) {
-  size_t b = sizeof(Vec3f) * 2 + sizeof(Mat3f) + sizeof(uint32_t) + sizeof(uint16_t);
+  size_t b = sizeof(Vec3f) * 2 + sizeof(Mat3f) + sizeof(uint32_t) + sizeof(uint16_t) +
+             sizeof(uint64_t);  // and its sequence number
   if (set.usesF()) b += sizeof(Mat3f);
   if (set.usesJ()) b += sizeof(float);
   return b;
@@ -43,6 +44,11 @@ void packParticle(const ParticleSet& set, size_t i, std::vector<unsigned char>& 
   put(out, set.object[i]);
 }
 
+void packParticle(const ParticleSet& set, size_t i, uint64_t seq, std::vector<unsigned char>& out) {
+  packParticle(set, i, out);
+  put(out, seq);
+}
+
 void unpackParticle(ParticleSet& set, const unsigned char*& in) {
   set.x.push_back(take<Vec3f>(in));
   set.v.push_back(take<Vec3f>(in));
@@ -51,6 +57,24 @@ void unpackParticle(ParticleSet& set, const unsigned char*& in) {
   if (set.usesJ()) set.J.push_back(take<float>(in));
   set.id.push_back(take<uint32_t>(in));
   set.object.push_back(take<uint16_t>(in));
+}
+
+void unpackParticle(ParticleSet& set, std::vector<uint64_t>& seq, const unsigned char*& in) {
+  unpackParticle(set, in);
+  seq.push_back(take<uint64_t>(in));
+}
+
+// Reorders `set` (and `seq` with it) by ascending sequence number, stably.
+void sortSet(ParticleSet& set, std::vector<uint64_t>& seq) {
+  if (std::is_sorted(seq.begin(), seq.end())) return;
+  std::vector<uint32_t> src(seq.size());
+  for (size_t i = 0; i < src.size(); ++i) src[i] = uint32_t(i);
+  std::stable_sort(src.begin(), src.end(), [&](uint32_t a, uint32_t b) { return seq[a] < seq[b]; });
+  std::vector<unsigned char> scratch(set.size() * ParticleSet::kPermuteScratch);
+  set.permute(src, scratch.data());
+  std::vector<uint64_t> sorted(seq.size());
+  for (size_t i = 0; i < src.size(); ++i) sorted[i] = seq[src[i]];
+  seq = std::move(sorted);
 }
 
 // Keeps the particles of `set` whose flag is 0, in their order.
@@ -207,19 +231,44 @@ void MpiDomain::balance(std::vector<ParticleSet>& sets, bool whole) {
     balance_seconds_ += MPI_Wtime() - t0;
     return;
   }
-  for (ParticleSet& s : sets) {
+  // Every process holds the whole world, in the order one process would.
+  seq_.assign(sets.size(), {});
+  for (size_t k = 0; k < sets.size(); ++k) {
+    ParticleSet& s = sets[k];
     std::vector<uint8_t> gone(s.size());
-    for (size_t i = 0; i < s.size(); ++i) gone[i] = ownerOf(keyOf(s.x[i])) != rank_;
+    for (size_t i = 0; i < s.size(); ++i) {
+      gone[i] = ownerOf(keyOf(s.x[i])) != rank_;
+      if (!gone[i]) seq_[k].push_back(i);
+    }
     keepUnflagged(s, gone);
   }
+  seq_fresh_ = false;
+  bin_order_.clear();
+}
+
+void MpiDomain::sortBySequence(std::vector<ParticleSet>& sets) {
+  for (size_t k = 0; k < sets.size(); ++k) sortSet(sets[k], seq_[k]);
+  bin_order_.clear();
 }
 
 void MpiDomain::migrate(std::vector<ParticleSet>& sets) {
+  // Straight after a step the particles are in the order of their bins:
+  // number them by process and index.
+  const bool fresh = seq_fresh_;
+  seq_.resize(sets.size());
+  for (size_t k = 0; k < sets.size(); ++k) {
+    if (!fresh && seq_[k].size() == sets[k].size()) continue;
+    if (!fresh) throw std::logic_error("MPI: particles changed without their sequence numbers");
+    seq_[k].resize(sets[k].size());
+    for (size_t i = 0; i < seq_[k].size(); ++i) seq_[k][i] = uint64_t(rank_) << 40 | i;
+  }
+  seq_fresh_ = false;
   // Per destination: for each set, a count and that many particles.
   const size_t n = size_t(size_);
   std::vector<std::vector<unsigned char>> out(n);
   std::vector<std::vector<uint32_t>> leaving(n);
-  for (ParticleSet& s : sets) {
+  for (size_t k = 0; k < sets.size(); ++k) {
+    ParticleSet& s = sets[k];
     for (auto& l : leaving) l.clear();
     std::vector<uint8_t> gone(s.size(), 0);
     bool any = false;
@@ -232,22 +281,47 @@ void MpiDomain::migrate(std::vector<ParticleSet>& sets) {
     }
     for (size_t r = 0; r < n; ++r) {
       put(out[r], uint32_t(leaving[r].size()));
-      for (uint32_t i : leaving[r]) packParticle(s, i, out[r]);
+      for (uint32_t i : leaving[r]) packParticle(s, i, seq_[k][i], out[r]);
     }
-    if (any) keepUnflagged(s, gone);
+    if (any) {
+      keepUnflagged(s, gone);
+      size_t kept = 0;
+      for (size_t i = 0; i < gone.size(); ++i)
+        if (!gone[i]) seq_[k][kept++] = seq_[k][i];
+      seq_[k].resize(kept);
+    }
   }
   const auto in = exchange(out);
-  // Arrivals join at the end, by sending process: the binner's stable sort
-  // then gives the same order on any run.
+  // Arrivals join at the end, by sending process.
+  std::vector<size_t> own(sets.size()), below(sets.size());
+  for (size_t k = 0; k < sets.size(); ++k) own[k] = sets[k].size();
   for (size_t r = 0; r < n; ++r) {
-    if (r == size_t(rank_) || in[r].empty()) continue;
+    if (r == size_t(rank_)) {
+      for (size_t k = 0; k < sets.size(); ++k) below[k] = sets[k].size();
+      continue;
+    }
+    if (in[r].empty()) continue;
     const unsigned char* p = in[r].data();
-    for (ParticleSet& s : sets) {
-      const uint32_t k = take<uint32_t>(p);
-      for (uint32_t j = 0; j < k; ++j) unpackParticle(s, p);
-      received_ += k;
+    for (size_t k = 0; k < sets.size(); ++k) {
+      const uint32_t count = take<uint32_t>(p);
+      for (uint32_t j = 0; j < count; ++j) unpackParticle(sets[k], seq_[k], p);
+      received_ += count;
     }
   }
+  if (!fresh) {
+    // The arrivals' numbers interleave with the ones here: sort.
+    sortBySequence(sets);
+    return;
+  }
+  // Numbered by process, the order one process would hold them in is the
+  // arrivals from lower processes, then this one's, then the rest (and
+  // whatever sources add before the next binning): the binning visits
+  // them so.
+  bin_order_.assign(sets.size(), {});
+  for (size_t k = 0; k < sets.size(); ++k)
+    bin_order_[k] = {{uint32_t(own[k]), uint32_t(below[k])},
+                     {0u, uint32_t(own[k])},
+                     {uint32_t(below[k]), UINT32_MAX}};
 }
 
 void MpiDomain::extendLayout(GridLayout& layout) {
@@ -274,12 +348,21 @@ void MpiDomain::extendLayout(GridLayout& layout) {
     return uint32_t(std::lower_bound(layout.grid_keys.begin(), layout.grid_keys.end(), key) -
                     layout.grid_keys.begin());
   };
+  layout.layered.assign(layout.gridBlocks(), -1);
+  layout.layered_blocks = 0;
+  auto layer = [&](uint32_t gb) {
+    if (layout.layered[gb] < 0) layout.layered[gb] = int32_t(layout.layered_blocks++);
+  };
   for (size_t r = 0; r < n; ++r) {
     send_index_[r].clear();
     recv_index_[r].clear();
     for (uint64_t key : send_keys_[r]) send_index_[r].push_back(indexOf(key));
     for (uint64_t key : recv_keys_[r]) recv_index_[r].push_back(indexOf(key));
+    for (uint32_t gb : send_index_[r]) layer(gb);
+    for (uint32_t gb : recv_index_[r]) layer(gb);
   }
+  seq_fresh_ = true;  // the particles were binned: their order is the bins'
+  bin_order_.clear();
 }
 
 template <typename T, typename F>
@@ -309,12 +392,68 @@ void MpiDomain::exchangeBlocks(std::vector<T>& per_node,
   }
 }
 
-void MpiDomain::sumGhosts(const GridLayout&, std::vector<GridNode>& grid) {
-  // The owner adds every other process's sums to its own.
-  exchangeBlocks(grid, send_index_, recv_index_, [](GridNode& g, const GridNode& a) {
-    g.m += a.m;
-    for (int d = 0; d < 3; ++d) g.v[d] += a.v[d];
-  });
+void MpiDomain::sumGhosts(const GridLayout& layout, std::vector<GridNode>& grid,
+                          std::vector<GridNode>& layers) {
+  constexpr size_t kLayer = kBlockNodes * sizeof(GridNode);
+  // The colours this process scattered into each layered block.
+  std::vector<uint8_t> colours(layout.layered_blocks, 0);
+  for (int c = 0; c < 8; ++c)
+    for (uint32_t pb : layout.colour_blocks[size_t(c)])
+      for (uint32_t gb : layout.neighbours[pb])
+        if (layout.layered[gb] >= 0) colours[size_t(layout.layered[gb])] |= uint8_t(1u << c);
+  auto layerAt = [&](uint32_t gb, int c) {
+    return &layers[(size_t(layout.layered[gb]) * 8 + size_t(c)) * kBlockNodes];
+  };
+  // Each block others own: the colours scattered here, then their layers.
+  std::vector<std::vector<unsigned char>> out(static_cast<size_t>(size_));
+  for (size_t r = 0; r < out.size(); ++r)
+    for (uint32_t gb : send_index_[r]) {
+      const uint8_t mask = colours[size_t(layout.layered[gb])];
+      out[r].push_back(mask);
+      for (int c = 0; c < 8; ++c)
+        if (mask & (1u << c)) {
+          const auto* p = reinterpret_cast<const unsigned char*>(layerAt(gb, c));
+          out[r].insert(out[r].end(), p, p + kLayer);
+        }
+    }
+  const auto in = exchange(out);
+  // Each colour's layer of a block comes from the one process that holds
+  // the particle block of that colour next to it.
+  std::vector<uint8_t> folded(layout.layered_blocks, 0);
+  for (size_t r = 0; r < in.size(); ++r) {
+    const unsigned char* p = in[r].data();
+    const unsigned char* end = p + in[r].size();
+    for (uint32_t gb : recv_index_[r]) {
+      if (p >= end) throw std::runtime_error("MPI: layered grid blocks cut short");
+      const uint8_t mask = *p++;
+      uint8_t& mine = colours[size_t(layout.layered[gb])];
+      for (int c = 0; c < 8; ++c) {
+        if (!(mask & (1u << c))) continue;
+        if ((mine & (1u << c)) || end - p < std::ptrdiff_t(kLayer))
+          throw std::runtime_error("MPI: a grid block's colour scattered twice, or cut short");
+        std::memcpy(static_cast<void*>(layerAt(gb, c)), p, kLayer);
+        p += kLayer;
+      }
+      mine |= mask;
+    }
+    if (p != end) throw std::runtime_error("MPI: layered grid blocks of unexpected size");
+  }
+  // The owner adds the colours in order, as one process adds them.
+  for (size_t r = 0; r < recv_index_.size(); ++r)
+    for (uint32_t gb : recv_index_[r]) {
+      const size_t slot = size_t(layout.layered[gb]);
+      if (folded[slot]) continue;
+      folded[slot] = 1;
+      for (int k = 0; k < kBlockNodes; ++k) {
+        GridNode& g = grid[size_t(gb) * kBlockNodes + size_t(k)];
+        for (int c = 0; c < 8; ++c) {
+          if (!(colours[slot] & (1u << c))) continue;
+          const GridNode& a = layerAt(gb, c)[k];
+          g.m += a.m;
+          for (int d = 0; d < 3; ++d) g.v[d] += a.v[d];
+        }
+      }
+    }
 }
 
 void MpiDomain::returnHalo(const GridLayout&, std::vector<GridNode>& grid) {
@@ -364,7 +503,9 @@ void MpiDomain::gather(const std::vector<ParticleSet>& sets, std::vector<Particl
   for (size_t s = 0; s < sets.size(); ++s) {
     std::vector<unsigned char> mine;
     mine.reserve(sets[s].size() * recordBytes(sets[s]));
-    for (size_t i = 0; i < sets[s].size(); ++i) packParticle(sets[s], i, mine);
+    const bool numbered = !seq_fresh_ && s < seq_.size() && seq_[s].size() == sets[s].size();
+    for (size_t i = 0; i < sets[s].size(); ++i)
+      packParticle(sets[s], i, numbered ? seq_[s][i] : uint64_t(rank_) << 40 | i, mine);
     if (mine.size() > size_t(INT_MAX)) throw std::runtime_error("MPI: message over 2 GiB");
     int bytes = int(mine.size());
     std::vector<int> counts(rank_ == 0 ? size_t(size_) : 0), offsets(counts.size());
@@ -383,11 +524,16 @@ void MpiDomain::gather(const std::vector<ParticleSet>& sets, std::vector<Particl
                       MPI_BYTE, 0, comm_),
           "Gatherv");
     if (rank_ != 0) continue;
+    // In the order one process would hold them in: its checkpoints and
+    // volumes are then the same bytes.
     ParticleSet& out = all[s];
     const size_t count = in.size() / recordBytes(sets[s]);
     out.reserve(count);
+    std::vector<uint64_t> seq;
+    seq.reserve(count);
     const unsigned char* p = in.data();
-    for (size_t i = 0; i < count; ++i) unpackParticle(out, p);
+    for (size_t i = 0; i < count; ++i) unpackParticle(out, seq, p);
+    sortSet(out, seq);
   }
   comm_seconds_ += MPI_Wtime() - t0;
 }

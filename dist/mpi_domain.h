@@ -42,9 +42,11 @@ class MpiDomain final : public DomainExchange {
   uint64_t particlesReceived() const { return received_; }
 
   void extendLayout(GridLayout& layout) override;
-  void sumGhosts(const GridLayout& layout, std::vector<GridNode>& grid) override;
+  void sumGhosts(const GridLayout& layout, std::vector<GridNode>& grid,
+                 std::vector<GridNode>& layers) override;
   void returnHalo(const GridLayout& layout, std::vector<GridNode>& grid) override;
   void migrate(std::vector<ParticleSet>& sets) override;
+  const BinOrder* binOrder() const override { return &bin_order_; }
   void maxOverProcesses(std::vector<double>& values) override;
   bool owns(uint64_t key) const override { return ownerOf(key) == rank_; }
   int process() const override { return rank_; }
@@ -64,7 +66,18 @@ class MpiDomain final : public DomainExchange {
   std::vector<std::vector<unsigned char>> exchange(
       const std::vector<std::vector<unsigned char>>& out);
 
+  // Puts each set's particles in the order of their sequence numbers.
+  void sortBySequence(std::vector<ParticleSet>& sets);
+
   MPI_Comm comm_;
+  // Per set and particle, where it stands in the order one process would
+  // hold the particles in: its index in the whole world at the start, then
+  // (process << 40 | index) as of the last binning. Valid from a split or
+  // a migration to the next binning; `seq_fresh_` once the particles were
+  // binned again (their order is then the bins', by process).
+  std::vector<std::vector<uint64_t>> seq_;
+  bool seq_fresh_ = true;
+  BinOrder bin_order_;
   int rank_ = 0, size_ = 1;
   TransferParams params_;
   std::vector<uint64_t> cut_;  // size_ + 1 entries: process r owns keys [cut_[r], cut_[r + 1])

@@ -130,8 +130,8 @@ void Solver::step(double dt) {
     computeStress(fdt);
     particlesToGrid();              // contract step 2
     if (domain_) {                  // partial sums to their owners
-      domain_->sumGhosts(layout_, grid_);
-      if (flip_) domain_->sumGhosts(layout_, flip_grid_);
+      domain_->sumGhosts(layout_, grid_, layers_);
+      if (flip_) domain_->sumGhosts(layout_, flip_grid_, flip_layers_);
     }
     if (solids) scatterSolids();    // steps 1, 3, 4
     updateGrid(fdt);                // step 5
@@ -141,9 +141,9 @@ void Solver::step(double dt) {
     }
     if (solids) collideSolids();    // step 6
     gridToParticles(fdt);           // step 7
-    if (solids) pushOutOfSolids(dt);  // no particle stays inside a body
-    if (domain_) domain_->migrate(world_.sets);  // particles to their blocks' owners
+    if (solids) pushOutOfSolids(dt);            // no particle stays inside a body
     if (!world_.sinks.empty()) drainSinks(dt);  // remove what the sinks hold
+    if (domain_) domain_->migrate(world_.sets);  // particles to their blocks' owners
   }
   if (solids) advanceSolids(dt);    // step 8, then contacts and rigid motion
   if (sleep_ && solids) updateBodyStillness(dt);
@@ -204,7 +204,8 @@ void Solver::drainSinks(double dt) {
 
 void Solver::binParticles() {
   PhaseTimer timer(times_.bin);
-  binner_.bin(world_.sets, params_.shifted_origin, params_.inv_dx, layout_, &grid_);
+  binner_.bin(world_.sets, params_.shifted_origin, params_.inv_dx, layout_, &grid_,
+              domain_ ? domain_->binOrder() : nullptr);
 }
 
 double Solver::wakeMargin() const {
@@ -292,7 +293,8 @@ void Solver::computeStress(float dt) {
 
 void Solver::particlesToGrid() {
   PhaseTimer timer(times_.p2g);
-  triad::particlesToGrid(world_.sets, layout_, params_, grid_, flip_ ? &flip_grid_ : nullptr);
+  triad::particlesToGrid(world_.sets, layout_, params_, grid_, flip_ ? &flip_grid_ : nullptr,
+                         domain_ ? &layers_ : nullptr, domain_ && flip_ ? &flip_layers_ : nullptr);
 }
 
 void Solver::updateGrid(float dt) {
@@ -525,74 +527,87 @@ void Solver::pushOutOfSolids(double dt) {
     rot.push_back(b.rotation());
     omega.push_back(b.omega());
   }
-  // Impulses summed per fixed-size chunk of particles, then over chunks in
-  // order: the same sums for any thread count.
-  constexpr int64_t kChunk = 4096;
+  // Impulses summed per particle block, then over the blocks in the order
+  // of their keys: the same sums for any thread count, and for any split
+  // over processes (their blocks, in process order, are in that order).
   struct Push {
+    uint64_t key = 0, body = 0;
     Vec3d p = Vec3d::Zero(), l = Vec3d::Zero();
   };
   size_t moved = 0;
-  for (ParticleSet& set : world_.sets) {
-    const int64_t chunks = (int64_t(set.size()) + kChunk - 1) / kChunk;
-    std::vector<Push> partial(size_t(chunks) * nb);
-#pragma omp parallel for schedule(static) reduction(+ : moved) if (chunks > 1)
-    for (int64_t c = 0; c < chunks; ++c) {
-      const int64_t end = std::min<int64_t>(int64_t(set.size()), (c + 1) * kChunk);
-      for (int64_t i = c * kChunk; i < end; ++i) {
-        for (size_t bi = 0; bi < nb; ++bi) {
-          const RigidBody& b = world_.bodies[bi];
-          const Vec3d x = set.x[i].cast<double>();
-          double phi;
-          Vec3d n, vb;
-          if (!b.surfaceAt(x, rot[bi], phi, n, vb) || phi >= 0.0) continue;
-          const Vec3d v = set.v[i].cast<double>();
-          const Vec3d v_rel = v - vb;
-          Vec3d out = x - phi * n, normal = n;
-          // (Not through a deforming collider: its placed samples leave
-          // holes where its surface stretched, which this search would take
-          // for the far side.)
-          if (v_rel.dot(n) > 0.0 && !b.placed) {
-            // Moving out through the nearest face: in a part thinner than a
-            // few samples it came in through the opposite one (a plate one
-            // cell thick). Send it back there, not through. The search
-            // reaches a cell whatever the body's sample spacing.
-            const double h = b.spacing;
-            const int steps = std::clamp(int(std::ceil(2.0 * std::max(2.0 * h, dx) / h)), 4, 32);
-            for (int step = 1; step <= steps; ++step) {
-              const Vec3d back = x - (step * 0.5 * h) * n;
-              if (b.sampleAt(back) == -1) {
-                out = back;
-                normal = -n;
-                break;
+  for (size_t si = 0; si < world_.sets.size() && nb > 0; ++si) {
+    ParticleSet& set = world_.sets[si];
+    const std::vector<uint32_t>& off = layout_.offsets[si];
+    std::vector<Push> partial;
+#pragma omp parallel reduction(+ : moved)
+    {
+      std::vector<Push> mine, acc(nb);
+      std::vector<uint8_t> touched(nb);
+#pragma omp for schedule(dynamic, 16) nowait
+      for (int64_t pb = 0; pb < int64_t(layout_.particleBlocks()); ++pb) {
+        std::fill(touched.begin(), touched.end(), 0);
+        for (int64_t i = off[pb]; i < int64_t(off[pb + 1]); ++i) {
+          for (size_t bi = 0; bi < nb; ++bi) {
+            const RigidBody& b = world_.bodies[bi];
+            const Vec3d x = set.x[i].cast<double>();
+            double phi;
+            Vec3d n, vb;
+            if (!b.surfaceAt(x, rot[bi], phi, n, vb) || phi >= 0.0) continue;
+            const Vec3d v = set.v[i].cast<double>();
+            const Vec3d v_rel = v - vb;
+            Vec3d out = x - phi * n, normal = n;
+            // (Not through a deforming collider: its placed samples leave
+            // holes where its surface stretched, which this search would take
+            // for the far side.)
+            if (v_rel.dot(n) > 0.0 && !b.placed) {
+              // Moving out through the nearest face: in a part thinner than a
+              // few samples it came in through the opposite one (a plate one
+              // cell thick). Send it back there, not through. The search
+              // reaches a cell whatever the body's sample spacing.
+              const double h = b.spacing;
+              const int steps = std::clamp(int(std::ceil(2.0 * std::max(2.0 * h, dx) / h)), 4, 32);
+              for (int step = 1; step <= steps; ++step) {
+                const Vec3d back = x - (step * 0.5 * h) * n;
+                if (b.sampleAt(back) == -1) {
+                  out = back;
+                  normal = -n;
+                  break;
+                }
               }
             }
+            set.x[i] = out.cast<float>();
+            const double vn = v_rel.dot(normal);
+            if (vn < 0.0) {
+              set.v[i] = (v - vn * normal).cast<float>();
+              const Vec3d j = double(set.mass) * vn * normal;  // what the body takes
+              if (!touched[bi]) acc[bi] = Push{layout_.particle_keys[size_t(pb)], bi};
+              touched[bi] = 1;
+              acc[bi].p += j;
+              acc[bi].l += (x - b.state.x).cross(j);
+            }
+            ++moved;
           }
-          set.x[i] = out.cast<float>();
-          const double vn = v_rel.dot(normal);
-          if (vn < 0.0) {
-            set.v[i] = (v - vn * normal).cast<float>();
-            const Vec3d j = double(set.mass) * vn * normal;  // what the body takes
-            Push& acc = partial[size_t(c) * nb + bi];
-            acc.p += j;
-            acc.l += (x - b.state.x).cross(j);
-          }
-          ++moved;
         }
+        for (size_t bi = 0; bi < nb; ++bi)
+          if (touched[bi]) mine.push_back(acc[bi]);
       }
+#pragma omp critical
+      partial.insert(partial.end(), mine.begin(), mine.end());
     }
-    // Split over processes: every process's chunks, in process order, so
+    std::sort(partial.begin(), partial.end(), [](const Push& a, const Push& b) {
+      return a.key != b.key ? a.key < b.key : a.body < b.body;
+    });
+    // Split over processes: every process's blocks, in process order, so
     // that the bodies change alike everywhere.
-    if (domain_ && nb > 0) partial = allGatherValues(*domain_, partial);
-    for (size_t c = 0; c < partial.size() / std::max<size_t>(nb, 1); ++c)
-      for (size_t bi = 0; bi < nb; ++bi) {
-        RigidBody& b = world_.bodies[bi];
-        const Push& acc = partial[c * nb + bi];
-        loads_[bi].impulse += acc.p;
-        loads_[bi].moment += acc.l;
-        if (b.fixed) continue;
-        b.state.v += acc.p / b.mass;
-        b.state.L += acc.l;
-      }
+    if (domain_) partial = allGatherValues(*domain_, partial);
+    for (const Push& acc : partial) {
+      RigidBody& b = world_.bodies[size_t(acc.body)];
+      loads_[acc.body].impulse += acc.p;
+      loads_[acc.body].moment += acc.l;
+      if (b.fixed) continue;
+      b.state.v += acc.p / b.mass;
+      b.state.L += acc.l;
+    }
   }
   // Elastic solids: particles inside their deformed meshes.
   for (ElasticSolid& e : world_.elastics) moved += pushParticlesOut(e, world_.sets, dt, domain_);
@@ -602,15 +617,6 @@ void Solver::pushOutOfSolids(double dt) {
 void Solver::advanceSolids(double dt) {
   PhaseTimer timer(times_.solids);
   coupling_->gather(points_, params_);
-  if (domain_) {
-    // Split over processes, each point's change is the sum of what every
-    // process's nodes gave it, added in process order.
-    const std::vector<Vec3f> all = allGatherValues(*domain_, points_.dv);
-    std::fill(points_.dv.begin(), points_.dv.end(), Vec3f::Zero());
-    for (size_t at = 0; at + points_.dv.size() <= all.size() && !points_.dv.empty();
-         at += points_.dv.size())
-      for (size_t q = 0; q < points_.dv.size(); ++q) points_.dv[q] += all[at + q];
-  }
   // Each body takes the momentum and angular momentum its collision
   // particles gained. Only the change is read back: a body that touches no
   // material keeps its motion exactly, instead of losing spin to the

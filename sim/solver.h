@@ -149,6 +149,9 @@ class Solver {
   GridLayout layout_;
   std::vector<GridNode> grid_;
   std::vector<GridNode> flip_grid_;
+  // Split over processes: the sums of blocks that cross processes, a layer
+  // per colour (particlesToGrid).
+  std::vector<GridNode> layers_, flip_layers_;
   std::unique_ptr<SleepTracker> sleep_;  // only when the scene lets material sleep
   std::vector<float> block_speed2_;      // per particle block, from the gather
   size_t sleeping_ = 0;                  // particles asleep this step

@@ -308,22 +308,31 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
     return sn.m > 0.0f && g.m > 0.0f && (sn.phi <= reach || sn.owner < 0);
   };
 
-  // The shared nodes, in slot order: counted per slot, then filled.
+  // The shared nodes in the order of their grid blocks' keys, the order
+  // every split of the run gathers them in (the sums over them below then
+  // do not depend on the split): counted per block, then filled.
   const int64_t slots = int64_t(slot_block_.size());
+  std::vector<uint32_t> by_key(static_cast<size_t>(slots));
+  for (size_t s = 0; s < by_key.size(); ++s) by_key[s] = uint32_t(s);
+  std::sort(by_key.begin(), by_key.end(),
+            [&](uint32_t a, uint32_t b) { return slot_block_[a] < slot_block_[b]; });
   std::vector<uint32_t> first(size_t(slots) + 1, 0);
 #pragma omp parallel for schedule(static) if (slots > 64)
-  for (int64_t s = 0; s < slots; ++s) {
+  for (int64_t j = 0; j < slots; ++j) {
+    const size_t s = by_key[size_t(j)];
     uint32_t count = 0;
     for (int k = 0; k < kBlockNodes; ++k)
-      count += inContact(nodes_[size_t(s) * kBlockNodes + k], grid[size_t(slot_block_[s]) * kBlockNodes + k]);
-    first[size_t(s) + 1] = count;
+      count +=
+          inContact(nodes_[s * kBlockNodes + k], grid[size_t(slot_block_[s]) * kBlockNodes + k]);
+    first[size_t(j) + 1] = count;
   }
-  for (int64_t s = 0; s < slots; ++s) first[size_t(s) + 1] += first[size_t(s)];
+  for (int64_t j = 0; j < slots; ++j) first[size_t(j) + 1] += first[size_t(j)];
   shared_.resize(first.back());
 #pragma omp parallel for schedule(static) if (slots > 64)
-  for (int64_t s = 0; s < slots; ++s) {
+  for (int64_t j = 0; j < slots; ++j) {
+    const size_t s = by_key[size_t(j)];
     const size_t gb = slot_block_[s];
-    uint32_t out = first[size_t(s)];
+    uint32_t out = first[size_t(j)];
     for (int k = 0; k < kBlockNodes; ++k) {
       const size_t i = size_t(s) * kBlockNodes + k;
       const SolidNode& sn = nodes_[i];
@@ -508,10 +517,26 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
       addNodeLoad(c.fixed_solid, c, -c.P);
     else if (!combined && c.solid >= 0)
       addNodeLoad(c.solid, c, -c.P);
-    else if (!combined && c.i != kNotHere && (!domain_ || mine_[k]))
+    else if (!combined && c.i != kNotHere && !domain_)
       delta_[c.i] = -c.P / c.m_vol;
   }
   stats_.collisions = collisions;
+  if (!domain_) return;
+  // Split over processes: the changes of every node, for gatherEverywhere.
+  change_keys_.clear();
+  for (size_t k = 0; k < shared_.size(); ++k)
+    if (shared_[k].lambda > 0.0f && !shared_[k].fixed && shared_[k].solid < 0 && !combined)
+      change_keys_.push_back(shared_at_[k].first);
+  change_keys_.erase(std::unique(change_keys_.begin(), change_keys_.end()), change_keys_.end());
+  change_.assign(change_keys_.size() * kBlockNodes, Vec3f::Zero());
+  for (size_t k = 0; k < shared_.size(); ++k) {
+    const Shared& c = shared_[k];
+    if (!(c.lambda > 0.0f && !c.fixed && c.solid < 0 && !combined)) continue;
+    const size_t b =
+        size_t(std::lower_bound(change_keys_.begin(), change_keys_.end(), shared_at_[k].first) -
+               change_keys_.begin());
+    change_[b * kBlockNodes + shared_at_[k].second] = -c.P / c.m_vol;
+  }
 }
 
 void GridCoupling::shareAcrossProcesses() {
@@ -529,7 +554,9 @@ void GridCoupling::shareAcrossProcesses() {
   const std::vector<Record> all = allGatherValues(*domain_, mine);
   shared_.clear();
   mine_.clear();
+  shared_at_.clear();
   for (const Record& r : all) {
+    shared_at_.emplace_back(r.key, r.k);
     Shared c = r.c;
     c.g = c.i = kNotHere;
     const auto it = std::lower_bound(layout_keys_->begin(), layout_keys_->end(), r.key);
@@ -552,6 +579,10 @@ void GridCoupling::addNodeLoad(int32_t solid, const Shared& c, const Vec3f& impu
 }
 
 void GridCoupling::gather(SolidPoints& pts, const TransferParams& p) const {
+  if (domain_) {
+    gatherEverywhere(pts, p);
+    return;
+  }
   pts.dv.assign(pts.size(), Vec3f::Zero());
 #pragma omp parallel for schedule(dynamic, 4) if (blocks_.size() > 32)
   for (int64_t k = 0; k < int64_t(blocks_.size()); ++k) {
@@ -564,6 +595,35 @@ void GridCoupling::gather(SolidPoints& pts, const TransferParams& p) const {
         forStencil(blk, pts.x[q], p, [&](float w, size_t i, const Vec3f&) { dv += w * delta_[i]; });
         pts.dv[q] = dv;
       }
+    }
+  }
+}
+
+void GridCoupling::gatherEverywhere(SolidPoints& pts, const TransferParams& p) const {
+  // The same sums as gather(): the stencil's nodes in the same order, the
+  // nodes without a change (or without a block here) adding nothing.
+  pts.dv.assign(pts.size(), Vec3f::Zero());
+  struct Blocks {
+    std::array<int32_t, 8> slot;
+  };
+  for (size_t s = 0; s < pts.solids(); ++s) {
+    if (pts.kind[s] != SolidKind::Moving || change_keys_.empty()) continue;
+    const int64_t first = int64_t(pts.begin[s]);
+    const int64_t last = int64_t(s + 1 < pts.begin.size() ? pts.begin[s + 1] : pts.size());
+#pragma omp parallel for schedule(static) if (last - first > 4096)
+    for (int64_t q = first; q < last; ++q) {
+      const Vec3i base = baseNode(pts.x[q], p.shifted_origin, p.inv_dx);
+      const Vec3i bc(blockOf(base.x()), blockOf(base.y()), blockOf(base.z()));
+      Blocks blk;
+      for (int d = 0; d < 8; ++d) {
+        const uint64_t key = packBlock(bc + Vec3i((d >> 2) & 1, (d >> 1) & 1, d & 1));
+        const auto it = std::lower_bound(change_keys_.begin(), change_keys_.end(), key);
+        blk.slot[d] =
+            it != change_keys_.end() && *it == key ? int32_t(it - change_keys_.begin()) : kNoSlot;
+      }
+      Vec3f dv = Vec3f::Zero();
+      forStencil(blk, pts.x[q], p, [&](float w, size_t i, const Vec3f&) { dv += w * change_[i]; });
+      pts.dv[q] = dv;
     }
   }
 }

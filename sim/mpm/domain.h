@@ -17,17 +17,24 @@ class DomainExchange {
   virtual ~DomainExchange() = default;
 
   // After binning: add to `layout` the grid blocks this process owns that
-  // other processes' particles scatter into, and learn which of its own
-  // grid blocks other processes own.
+  // other processes' particles scatter into, learn which of its own grid
+  // blocks other processes own, and mark both kinds layered.
   virtual void extendLayout(GridLayout& layout) = 0;
-  // After P2G: each block's partial sums go to the block's owner, which adds
-  // them to its own in a fixed order (its own first, then by process).
-  virtual void sumGhosts(const GridLayout& layout, std::vector<GridNode>& grid) = 0;
+  // After P2G: the layered blocks' sums, a layer per colour (`layers`, see
+  // particlesToGrid), go to each block's owner, which adds every colour's
+  // layer in colour order, wherever it was scattered: each node's sum is the
+  // one a single process makes, bit for bit.
+  virtual void sumGhosts(const GridLayout& layout, std::vector<GridNode>& grid,
+                         std::vector<GridNode>& layers) = 0;
   // After the grid update: owners send the updated nodes back to every
   // process that scattered into them, for its G2P.
   virtual void returnHalo(const GridLayout& layout, std::vector<GridNode>& grid) = 0;
   // After G2P: particles move to the process that owns their block.
   virtual void migrate(std::vector<ParticleSet>& sets) = 0;
+  // The order in which the next binning visits each set's particles, so
+  // that particles of one block keep the order one process would give them
+  // (arrivals from processes of lower blocks first); null: array order.
+  virtual const BinOrder* binOrder() const = 0;
   // The largest of `values` (element-wise) over every process.
   virtual void maxOverProcesses(std::vector<double>& values) = 0;
 

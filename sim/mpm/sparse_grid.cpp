@@ -54,7 +54,7 @@ size_t Binner::bytes() const {
 }
 
 void Binner::bin(std::vector<ParticleSet>& sets, const Vec3f& shifted_origin, float inv_dx,
-                 GridLayout& layout, std::vector<GridNode>* spare) {
+                 GridLayout& layout, std::vector<GridNode>* spare, const BinOrder* order) {
   auto keyOf = [&](const Vec3f& x) {
     const Vec3i base = baseNode(x, shifted_origin, inv_dx);
     return packBlock(Vec3i(blockOf(base.x()), blockOf(base.y()), blockOf(base.z())));
@@ -63,30 +63,41 @@ void Binner::bin(std::vector<ParticleSet>& sets, const Vec3f& shifted_origin, fl
   // Find the runs of particles that share a block. Particles stay sorted from
   // the previous step, so runs are long and few, and everything after this
   // pass costs per run rather than per particle. Chunks have a fixed size, so
-  // the runs found do not depend on the thread count.
+  // the runs found do not depend on the thread count. With an order, the
+  // ranges are visited in the order given, and a run never crosses one.
   constexpr size_t kChunk = 16384;
   runs_.resize(sets.size());
   for (size_t s = 0; s < sets.size(); ++s) {
     const std::vector<Vec3f>& x = sets[s].x;
-    const int64_t chunks = static_cast<int64_t>((x.size() + kChunk - 1) / kChunk);
-    chunk_runs_.resize(std::max<size_t>(chunk_runs_.size(), size_t(chunks)));
+    std::vector<std::pair<size_t, size_t>> chunks;
+    auto addRange = [&](size_t begin, size_t end) {
+      for (size_t c = begin; c < end; c += kChunk)
+        chunks.emplace_back(c, std::min(end, c + kChunk));
+    };
+    if (order && s < order->size() && !(*order)[s].empty()) {
+      for (const auto& [begin, end] : (*order)[s])
+        addRange(std::min<size_t>(begin, x.size()), std::min<size_t>(end, x.size()));
+    } else {
+      addRange(0, x.size());
+    }
+    chunk_runs_.resize(std::max(chunk_runs_.size(), chunks.size()));
 #pragma omp parallel for schedule(static)
-    for (int64_t c = 0; c < chunks; ++c) {
+    for (int64_t c = 0; c < static_cast<int64_t>(chunks.size()); ++c) {
       std::vector<Run>& out = chunk_runs_[c];
       out.clear();
-      const size_t end = std::min(x.size(), size_t(c + 1) * kChunk);
-      for (size_t i = size_t(c) * kChunk; i < end; ++i) {
+      for (size_t i = chunks[c].first; i < chunks[c].second; ++i) {
         const uint64_t k = keyOf(x[i]);
-        if (out.empty() || out.back().key != k) out.push_back({k, uint32_t(i), 0});
+        if (out.empty() || out.back().key != k) out.push_back({k, uint32_t(i), uint32_t(i), 0});
+        out.back().end = uint32_t(i + 1);
       }
     }
     runs_[s].clear();
-    for (int64_t c = 0; c < chunks; ++c)
+    for (size_t c = 0; c < chunks.size(); ++c)
       runs_[s].insert(runs_[s].end(), chunk_runs_[c].begin(), chunk_runs_[c].end());
     // Unsorted input (the first step) has many short runs: do not keep the
     // memory once the particles are sorted.
     if (runs_[s].capacity() > 4 * runs_[s].size() + 4096) runs_[s].shrink_to_fit();
-    for (int64_t c = 0; c < chunks; ++c)
+    for (size_t c = 0; c < chunks.size(); ++c)
       if (chunk_runs_[c].capacity() > 2 * chunk_runs_[c].size() + 256)
         chunk_runs_[c].shrink_to_fit();
   }
@@ -98,6 +109,8 @@ void Binner::bin(std::vector<ParticleSet>& sets, const Vec3f& shifted_origin, fl
   sortUnique(run_keys_);
   layout.particle_keys = run_keys_;
   layout.asleep.clear();  // all awake until a sleep tracker says otherwise
+  layout.layered.clear();  // a split run's exchange marks them anew
+  layout.layered_blocks = 0;
   const size_t nblocks = layout.particle_keys.size();
 
   // Sort each set's particles by block with a stable counting sort over runs.
@@ -110,18 +123,16 @@ void Binner::bin(std::vector<ParticleSet>& sets, const Vec3f& shifted_origin, fl
     bool sorted = true;
     for (size_t r = 0; r < runs.size(); ++r) {
       runs[r].block = findKey(layout.particle_keys, runs[r].key);
-      const uint32_t end = r + 1 < runs.size() ? runs[r + 1].start : uint32_t(set.size());
-      off[runs[r].block + 1] += end - runs[r].start;
-      sorted = sorted && (r == 0 || runs[r - 1].block <= runs[r].block);
+      off[runs[r].block + 1] += runs[r].end - runs[r].start;
+      sorted = sorted &&
+               (r == 0 || (runs[r - 1].block <= runs[r].block && runs[r - 1].end == runs[r].start));
     }
     for (size_t b = 0; b < nblocks; ++b) off[b + 1] += off[b];
     if (sorted) continue;
     src_.resize(set.size());
     std::vector<uint32_t> cursor(off.begin(), off.end() - 1);
-    for (size_t r = 0; r < runs.size(); ++r) {
-      const uint32_t end = r + 1 < runs.size() ? runs[r + 1].start : uint32_t(set.size());
-      for (uint32_t i = runs[r].start; i < end; ++i) src_[cursor[runs[r].block]++] = i;
-    }
+    for (size_t r = 0; r < runs.size(); ++r)
+      for (uint32_t i = runs[r].start; i < runs[r].end; ++i) src_[cursor[runs[r].block]++] = i;
     std::vector<GridNode>& buffer = spare ? *spare : scratch_;
     const size_t need = set.size() * ParticleSet::kPermuteScratch;
     if (buffer.size() * sizeof(GridNode) < need)
@@ -169,6 +180,11 @@ void addGridBlocks(GridLayout& layout, std::vector<uint64_t> keys) {
   }
   for (auto& n : layout.neighbours)
     for (uint32_t& g : n) g = moved[g];
+  if (!layout.layered.empty()) {
+    std::vector<int32_t> layered(merged.size(), -1);
+    for (size_t i = 0; i < moved.size(); ++i) layered[moved[i]] = layout.layered[i];
+    layout.layered = std::move(layered);
+  }
   layout.grid_keys = std::move(merged);
 }
 

@@ -9,6 +9,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "sim/math.h"
@@ -58,6 +59,13 @@ struct GridLayout {
   // Per particle block, whether its material sleeps (sim/mpm/sleep.h); empty
   // when the scene does not let material sleep.
   std::vector<uint8_t> asleep;
+  // Split over processes (sim/mpm/domain.h): per grid block, its slot among
+  // the blocks whose P2G sums cross processes, or -1 (empty when the run is
+  // not split). P2G keeps such a block's sums one layer per colour, so that
+  // its owner can add them in colour order, the order a single process
+  // adds them in: the split then changes no sum.
+  std::vector<int32_t> layered;
+  size_t layered_blocks = 0;
 
   bool sleeping(size_t pb) const { return !asleep.empty() && asleep[pb] != 0; }
 
@@ -65,6 +73,11 @@ struct GridLayout {
   size_t particleBlocks() const { return particle_keys.size(); }
   size_t bytes() const;
 };
+
+// Per set, ranges [begin, end) of its particle arrays in the order binning
+// visits them (end may pass the set's size: up to its end); an empty list
+// visits the set in array order.
+using BinOrder = std::vector<std::vector<std::pair<uint32_t, uint32_t>>>;
 
 // Bins every set's particles into blocks, reorders each set's attribute arrays
 // by block (stable, so the order is the same for any thread count) and builds
@@ -76,15 +89,18 @@ class Binner {
   // afresh): grown if it is smaller than the largest set needs, so that
   // the step holds the larger of grid and scratch, not both. Without it,
   // the binner keeps a scratch of its own.
+  // With `order`, particles of one block keep the order in which its
+  // ranges visit them rather than their array order.
   void bin(std::vector<ParticleSet>& sets, const Vec3f& shifted_origin, float inv_dx,
-           GridLayout& layout, std::vector<GridNode>* spare = nullptr);
+           GridLayout& layout, std::vector<GridNode>* spare = nullptr,
+           const BinOrder* order = nullptr);
   size_t bytes() const;
 
  private:
-  // Consecutive particles of one set in one block: [start, next run's start).
+  // Consecutive particles of one set in one block: [start, end).
   struct Run {
     uint64_t key;
-    uint32_t start;
+    uint32_t start, end;
     uint32_t block;  // index into GridLayout::particle_keys
   };
   std::vector<std::vector<Run>> runs_;        // per set

@@ -101,11 +101,13 @@ void scatterSet(const ParticleSet& set, const std::vector<uint32_t>& off, size_t
 
 template <bool kFlip>
 void scatterAll(const std::vector<ParticleSet>& sets, const GridLayout& layout,
-                const TransferParams& p, std::vector<GridNode>& grid, std::vector<GridNode>* flip) {
+                const TransferParams& p, std::vector<GridNode>& grid, std::vector<GridNode>* flip,
+                std::vector<GridNode>* layers, std::vector<GridNode>* flip_layers) {
   // Colours run one after another; blocks of one colour touch disjoint nodes,
   // so each node's sum has the same order for any thread count. One
   // parallel region for all eight (a barrier between colours): a region
   // per colour cost a wake-up of the sleeping threads each.
+  const bool layered = layout.layered_blocks > 0 && layers != nullptr;
 #pragma omp parallel
   {
     HaloBuffer<4> buf;
@@ -120,18 +122,35 @@ void scatterAll(const std::vector<ParticleSet>& sets, const GridLayout& layout,
         if constexpr (kFlip) std::memset(fbuf.d, 0, sizeof(fbuf.d));
         for (size_t s = 0; s < sets.size(); ++s)
           scatterSet<kFlip>(sets[s], layout.offsets[s], pb, p, layout, buf, &fbuf);
-        forHalo(layout, pb, [&](int h, size_t node) {
-          GridNode& g = grid[node];
+        auto add = [&](int h, GridNode& g, GridNode* f) {
           g.m += buf.d[h][0];
           g.v[0] += buf.d[h][1];
           g.v[1] += buf.d[h][2];
           g.v[2] += buf.d[h][3];
           if constexpr (kFlip) {
-            GridNode& f = (*flip)[node];
-            f.v[0] += fbuf.d[h][1];
-            f.v[1] += fbuf.d[h][2];
-            f.v[2] += fbuf.d[h][3];
+            f->v[0] += fbuf.d[h][1];
+            f->v[1] += fbuf.d[h][2];
+            f->v[2] += fbuf.d[h][3];
           }
+        };
+        bool touches_layer = false;
+        if (layered)
+          for (uint32_t gb : layout.neighbours[pb]) touches_layer |= layout.layered[gb] >= 0;
+        if (!touches_layer) {
+          forHalo(layout, pb, [&](int h, size_t node) {
+            add(h, grid[node], kFlip ? &(*flip)[node] : nullptr);
+          });
+          continue;
+        }
+        // Nodes of blocks whose sums cross processes go to this colour's layer.
+        forHalo(layout, pb, [&](int h, size_t node) {
+          const int32_t slot = layout.layered[node / kBlockNodes];
+          if (slot < 0) {
+            add(h, grid[node], kFlip ? &(*flip)[node] : nullptr);
+            return;
+          }
+          const size_t at = (size_t(slot) * 8 + size_t(colour)) * kBlockNodes + node % kBlockNodes;
+          add(h, (*layers)[at], kFlip ? &(*flip_layers)[at] : nullptr);
         });
       }
     }
@@ -279,14 +298,18 @@ float computeAffine(std::vector<ParticleSet>& sets, const TransferParams& p,
 
 void particlesToGrid(const std::vector<ParticleSet>& sets, const GridLayout& layout,
                      const TransferParams& p, std::vector<GridNode>& grid,
-                     std::vector<GridNode>* flip) {
+                     std::vector<GridNode>* flip, std::vector<GridNode>* layers,
+                     std::vector<GridNode>* flip_layers) {
   const size_t nodes = layout.gridBlocks() * kBlockNodes;
+  const size_t layer_nodes = layout.layered_blocks * 8 * kBlockNodes;
   grid.assign(nodes, GridNode{0, {0, 0, 0}});
+  if (layers) layers->assign(layer_nodes, GridNode{0, {0, 0, 0}});
   if (flip) {
     flip->assign(nodes, GridNode{0, {0, 0, 0}});
-    scatterAll<true>(sets, layout, p, grid, flip);
+    if (flip_layers) flip_layers->assign(layer_nodes, GridNode{0, {0, 0, 0}});
+    scatterAll<true>(sets, layout, p, grid, flip, layers, flip_layers);
   } else {
-    scatterAll<false>(sets, layout, p, grid, nullptr);
+    scatterAll<false>(sets, layout, p, grid, nullptr, layers, nullptr);
   }
 }
 

@@ -40,9 +40,12 @@ float computeAffine(std::vector<ParticleSet>& sets, const TransferParams& p,
 
 // Scatter mass and momentum into `grid` (sized layout.gridBlocks() * 64).
 // With FLIP, `flip` receives the momentum without the stress impulse.
+// Where the layout marks layered blocks (a split run), their sums go to
+// `layers` (and `flip_layers`) instead, 64 nodes per (slot * 8 + colour).
 void particlesToGrid(const std::vector<ParticleSet>& sets, const GridLayout& layout,
                      const TransferParams& p, std::vector<GridNode>& grid,
-                     std::vector<GridNode>* flip);
+                     std::vector<GridNode>* flip, std::vector<GridNode>* layers = nullptr,
+                     std::vector<GridNode>* flip_layers = nullptr);
 
 // Gather velocities (and, with FLIP, velocity changes) back to particles,
 // advect them, and update each particle's F (or J for water). Sleeping
