@@ -1,9 +1,9 @@
 // One simulation split over several processes (`mpirun -np N triad run`),
-// end to end: the cache agrees with a single process's, the bytes do not
-// depend on the thread count, momentum crosses the cut between processes
-// intact while particles migrate, the split follows the material, rigid
-// bodies and colliders move as under one process, and a run stopped under
-// one process count resumes under another.
+// end to end: the cache is a single process's, bit for bit (particles,
+// volumes, bodies and their forces), for any thread count; momentum crosses
+// the cut between processes intact while particles migrate, the split
+// follows the material, and a run stopped under one process count resumes
+// under another to the same bytes.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -153,9 +153,9 @@ class Mpi : public ::testing::Test {
   }
 };
 
-// Two and three processes write the cache one process writes, particle for
-// particle within 1e-5 of the domain's size; the split keeps every process
-// within 20% of the mean particle count in every frame.
+// Two and three processes write the cache one process writes, byte for
+// byte; the split keeps every process within 20% of the mean particle count
+// in every frame.
 TEST_F(Mpi, TwoAndThreeProcessesAgreeWithOne) {
   const fs::path dir = test::tempDir("agree");
   const int frames = 6;
@@ -163,7 +163,6 @@ TEST_F(Mpi, TwoAndThreeProcessesAgreeWithOne) {
   const test::CliResult one = run(dir, scene, dir / "one", "OMP_NUM_THREADS=1");
   ASSERT_EQ(one.status, 0) << one.err;
   EXPECT_FALSE(runJson(dir / "one").contains("mpi"));
-  const double size = std::sqrt(0.64 * 0.64 + 0.4 * 0.4 + 0.2 * 0.2);
   for (int n : {2, 3}) {
     const fs::path out = dir / ("np" + std::to_string(n));
     const test::CliResult r = run(dir, scene, out, mpirun(n));
@@ -262,7 +261,8 @@ TEST_F(Mpi, MomentumCrossesTheCutAndParticlesMigrate) {
   for (const Particle& q : last)
     if (q.object == 1) resting_vx += q.v[0], ++resting;
   EXPECT_GT(resting_vx / double(resting), 0.1);
-  EXPECT_LE(largestDifference(last, readParticles(framePly(dir / "one", 6))), 1e-5 * 0.9);
+  for (int f = 0; f <= 6; ++f)
+    EXPECT_TRUE(sameFile(framePly(dir / "np2", f), framePly(dir / "one", f))) << "frame " << f;
   // The material moved right and particles changed process: more than the
   // block's leading layer of cells arrived on the second.
   const json rj = runJson(dir / "np2");
@@ -293,15 +293,17 @@ TEST_F(Mpi, ResumesUnderAnotherProcessCount) {
   EXPECT_EQ(rj["mpi"]["ranks"].get<int>(), 3);
   EXPECT_GE(rj["resumed"]["from_frame"].get<int>(), 2);
   EXPECT_EQ(rj["steps"].get<int64_t>(), steps);
-  const double size = std::sqrt(0.64 * 0.64 + 0.4 * 0.4 + 0.2 * 0.2);
-  EXPECT_LE(largestDifference(readParticles(framePly(dir / "split", frames)),
-                              readParticles(framePly(dir / "one", frames))),
-            1e-5 * size);
+  // The checkpoint holds the particles in the order one process holds
+  // them: the resumed run ends on the same bytes.
+  EXPECT_TRUE(sameFile(framePly(dir / "split", frames), framePly(dir / "one", frames)));
+  EXPECT_TRUE(sameFile(frameVdb(dir / "split", frames), frameVdb(dir / "one", frames)));
 }
 
 // A ball dropped into water beside a fixed wall, and sand pushed by an
 // animated collider: bodies are whole on every process, each node's
-// collision is its owner's, and the bodies move as under one process.
+// collision is its owner's, and the bodies move as under one process. The
+// ball's friction makes the collision's passes sum over its nodes in float,
+// in the order of their blocks' keys on any split.
 TEST_F(Mpi, RigidBodiesAndCollidersAgreeWithOneProcess) {
   const fs::path dir = test::tempDir("bodies");
   json j = test::baseScene("mpi_bodies", {0.64, 0.4, 0.24}, 0.02);
@@ -320,6 +322,7 @@ TEST_F(Mpi, RigidBodiesAndCollidersAgreeWithOneProcess) {
       {{"name", "ball"},
        {"kind", "rigid"},
        {"density", 500},
+       {"friction", 0.5},
        {"velocity", {0, -1, 0}},
        {"shape", {{"sphere", {{"center", {0.2, 0.2, 0.12}}, {"radius", 0.05}}}}}},
       {{"name", "wall"},
@@ -352,31 +355,21 @@ TEST_F(Mpi, RigidBodiesAndCollidersAgreeWithOneProcess) {
   const std::vector<double> ref = ballAtEnd(dir / "one");
   ASSERT_EQ(ref.size(), 13u);
   EXPECT_LT(ref[1], 0.16);  // it fell into the water
-  const double size = std::sqrt(0.64 * 0.64 + 0.4 * 0.4 + 0.24 * 0.24);
   for (int n : {2, 3}) {
     const fs::path out = dir / ("np" + std::to_string(n));
     const test::CliResult r = run(dir, scene, out, mpirun(n));
     ASSERT_EQ(r.status, 0) << r.err;
-    const std::vector<double> ball = ballAtEnd(out);
-    ASSERT_EQ(ball.size(), 13u);
-    for (size_t k = 0; k < 3; ++k) EXPECT_NEAR(ball[k], ref[k], 1e-5 * size) << n;
-    for (size_t k = 7; k < 10; ++k) EXPECT_NEAR(ball[k], ref[k], 1e-3) << n;  // m/s
-    // Particles: RMS within 1e-5 of the domain; a few sand grains that the
-    // collider pushes slip or stick on a rounding, so the largest is looser.
-    const std::vector<Particle> a = readParticles(framePly(out, 8)),
-                                b = readParticles(framePly(dir / "one", 8));
-    ASSERT_EQ(a.size(), b.size());
-    double sum2 = 0.0;
-    for (size_t i = 0; i < a.size(); ++i)
-      for (int k = 0; k < 3; ++k) sum2 += std::pow(double(a[i].x[k]) - double(b[i].x[k]), 2);
-    EXPECT_LE(std::sqrt(sum2 / double(a.size())), 1e-5 * size) << n;
-    EXPECT_LE(largestDifference(a, b), 1e-3 * size) << n;
+    // Bit for bit: the bodies, their forces and every particle.
+    for (const char* f : {"bodies/rigid_states.csv", "bodies/forces.csv"})
+      EXPECT_TRUE(sameFile(out / f, dir / "one" / f)) << n << " " << f;
+    for (int f = 1; f <= 8; ++f)
+      EXPECT_TRUE(sameFile(framePly(out, f), framePly(dir / "one", f))) << n << " frame " << f;
   }
 }
 
 // An elastic (FEM) cube dropped into sand: the solid is whole on every
-// process, the particles pushed out of it are applied in process order, and
-// its mesh and the sand end where a single process puts them.
+// process, each of its points reads every node's change, and its mesh and
+// the sand end where a single process puts them.
 TEST_F(Mpi, ElasticSolidAgreesWithOneProcess) {
   const fs::path dir = test::tempDir("elastic");
   json j = test::baseScene("mpi_elastic", {0.48, 0.4, 0.24}, 0.02);
@@ -403,27 +396,24 @@ TEST_F(Mpi, ElasticSolidAgreesWithOneProcess) {
   const std::vector<float> ref = vertices(dir / "one");
   ASSERT_EQ(ref.size(), 24u);
   EXPECT_LT(ref[1], 0.12f);  // it hit the sand and sank into it
-  const double size = std::sqrt(0.48 * 0.48 + 0.4 * 0.4 + 0.24 * 0.24);
   for (int n : {2, 3}) {
     const fs::path out = dir / ("np" + std::to_string(n));
     const test::CliResult r = run(dir, scene, out, mpirun(n));
     ASSERT_EQ(r.status, 0) << r.err;
-    const std::vector<float> v = vertices(out);
-    ASSERT_EQ(v.size(), ref.size());
-    for (size_t k = 0; k < v.size(); ++k) EXPECT_NEAR(v[k], ref[k], 1e-5 * size) << n << " " << k;
-    EXPECT_LE(
-        largestDifference(readParticles(framePly(out, 8)), readParticles(framePly(dir / "one", 8))),
-        1e-5 * size)
-        << n;
+    for (int f = 1; f <= 8; ++f) {
+      char mesh[32];
+      std::snprintf(mesh, sizeof(mesh), "bodies/cube.%04d.ply", f);
+      EXPECT_TRUE(sameFile(out / mesh, dir / "one" / mesh)) << n << " " << mesh;
+      EXPECT_TRUE(sameFile(framePly(out, f), framePly(dir / "one", f))) << n << " frame " << f;
+    }
   }
 }
 
 // Water, snow and rubber thrown at an elastic block: about 1400 particles
 // are pushed out of it, all on one process, and every process applies
 // them all, in id order, to the block, whose state must agree bit for bit
-// between processes at every frame (or the run stops). The block ends
-// where a single process puts it to within what a rounding-level change
-// of the input moves it (6e-5 m: a push decision that flips).
+// between processes at every frame (or the run stops), and with a single
+// process's.
 TEST_F(Mpi, ParticlesPushedOutOfAnElasticSolidMoveItAlikeEverywhere) {
   const fs::path dir = test::tempDir("pushed");
   json j = everyMaterial(3);
@@ -456,19 +446,17 @@ TEST_F(Mpi, ParticlesPushedOutOfAnElasticSolidMoveItAlikeEverywhere) {
                            b = vertices(dir / "np2/bodies/block.0003.ply"),
                            start = vertices(dir / "one/bodies/block.0000.ply");
   ASSERT_EQ(a.size(), b.size());
-  float moved = 0.0f, worst = 0.0f;
-  for (size_t k = 0; k < a.size(); ++k) {
-    moved = std::max(moved, std::abs(a[k] - start[k]));
-    worst = std::max(worst, std::abs(a[k] - b[k]));
-  }
+  float moved = 0.0f;
+  for (size_t k = 0; k < a.size(); ++k) moved = std::max(moved, std::abs(a[k] - start[k]));
   EXPECT_GT(moved, 0.02f);  // the block fell 3 cm and deformed
-  EXPECT_LT(worst, 2e-4f);  // 0.3% of that
+  EXPECT_EQ(a, b);          // and ends where one process puts it, bit for bit
+  EXPECT_TRUE(sameFile(framePly(dir / "np2", 3), framePly(dir / "one", 3)));
 }
 
 // A source pours water through the cut between processes into a sink:
 // every process finds the same empty sites from all processes' particles,
 // makes the same particles and keeps its own; each removes its own in the
-// sink. Counts and particles are those of one process.
+// sink. Counts and particles are those of one process, bit for bit.
 TEST_F(Mpi, SourcesAndSinksMakeAndRemoveWhatOneProcessDoes) {
   const fs::path dir = test::tempDir("sources");
   json j = test::baseScene("mpi_sources", {0.48, 0.48, 0.24}, 0.02);
@@ -490,7 +478,6 @@ TEST_F(Mpi, SourcesAndSinksMakeAndRemoveWhatOneProcessDoes) {
   const json ref = runJson(dir / "one");
   ASSERT_GT(ref["particles"]["emitted"]["tap"].get<int>(), 1000);
   ASSERT_GT(ref["particles"]["removed"]["drain"].get<int>(), 100);
-  const double size = std::sqrt(0.48 * 0.48 + 0.48 * 0.48 + 0.24 * 0.24);
   for (int n : {2, 3}) {
     const fs::path out = dir / ("np" + std::to_string(n));
     const test::CliResult r = run(dir, scene, out, mpirun(n));
@@ -499,31 +486,8 @@ TEST_F(Mpi, SourcesAndSinksMakeAndRemoveWhatOneProcessDoes) {
     EXPECT_EQ(rj["particles"]["emitted"], ref["particles"]["emitted"]) << n;
     EXPECT_EQ(rj["particles"]["removed"], ref["particles"]["removed"]) << n;
     EXPECT_EQ(rj["particles"]["total"], ref["particles"]["total"]) << n;
-    // The same particles, as a set: a particle that sits on a source
-    // site's edge within a rounding can hold the site a step earlier or
-    // later, and two new particles then take each other's ids (measured:
-    // 3 processes swap two, 7 cm apart, and the water around them then
-    // differs by 1.2e-5 m RMS). So each particle is matched to the nearest
-    // of the one-process run's, and the RMS bound is 1e-4 of the domain (a
-    // 300th of a cell).
-    for (int f : {5, 10}) {
-      const std::vector<Particle> a = readParticles(framePly(out, f)),
-                                  b = readParticles(framePly(dir / "one", f));
-      ASSERT_EQ(a.size(), b.size());
-      double worst = 0.0, sum2 = 0.0;
-      for (const Particle& p : a) {
-        double best = 1e30;
-        for (const Particle& q : b) {
-          double d2 = 0.0;
-          for (int k = 0; k < 3; ++k) d2 += std::pow(double(p.x[k]) - double(q.x[k]), 2);
-          best = std::min(best, d2);
-        }
-        worst = std::max(worst, std::sqrt(best));
-        sum2 += best;
-      }
-      EXPECT_LE(std::sqrt(sum2 / double(a.size())), 1e-4 * size) << n << " processes, frame " << f;
-      EXPECT_LE(worst, 1e-3 * size) << n << " processes, frame " << f;
-    }
+    for (int f = 1; f <= 10; ++f)
+      EXPECT_TRUE(sameFile(framePly(out, f), framePly(dir / "one", f))) << n << " frame " << f;
   }
 }
 
@@ -537,10 +501,8 @@ TEST_F(Mpi, FlipAgreesWithOneProcess) {
   ASSERT_EQ(one.status, 0) << one.err;
   const test::CliResult two = run(dir, scene, dir / "np2", mpirun(2));
   ASSERT_EQ(two.status, 0) << two.err;
-  const double size = std::sqrt(0.64 * 0.64 + 0.4 * 0.4 + 0.2 * 0.2);
-  EXPECT_LE(largestDifference(readParticles(framePly(dir / "np2", 4)),
-                              readParticles(framePly(dir / "one", 4))),
-            1e-5 * size);
+  for (int f = 1; f <= 4; ++f)
+    EXPECT_TRUE(sameFile(framePly(dir / "np2", f), framePly(dir / "one", f))) << "frame " << f;
 }
 
 // SIGTERM to every process (as a batch system sends it) stops them all at
@@ -572,10 +534,7 @@ TEST_F(Mpi, SigtermStopsEveryProcessAtTheSameStepAndTheRunResumes) {
   const test::CliResult one = run(dir, scene, dir / "one", "OMP_NUM_THREADS=1");
   ASSERT_EQ(one.status, 0) << one.err;
   EXPECT_TRUE(runJson(out)["finished"].get<bool>());
-  const double size = std::sqrt(0.64 * 0.64 + 0.4 * 0.4 + 0.2 * 0.2);
-  EXPECT_LE(largestDifference(readParticles(framePly(out, frames)),
-                              readParticles(framePly(dir / "one", frames))),
-            1e-5 * size);
+  EXPECT_TRUE(sameFile(framePly(out, frames), framePly(dir / "one", frames)));
 }
 
 // What the split does not run yet is refused by name, once, before any work.

@@ -527,6 +527,7 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
   for (size_t k = 0; k < shared_.size(); ++k)
     if (shared_[k].lambda > 0.0f && !shared_[k].fixed && shared_[k].solid < 0 && !combined)
       change_keys_.push_back(shared_at_[k].first);
+  std::sort(change_keys_.begin(), change_keys_.end());
   change_keys_.erase(std::unique(change_keys_.begin(), change_keys_.end()), change_keys_.end());
   change_.assign(change_keys_.size() * kBlockNodes, Vec3f::Zero());
   for (size_t k = 0; k < shared_.size(); ++k) {
