@@ -273,6 +273,7 @@ int runScene(const RunOptions& options_in) {
       // Every process's share (a collective: all processes call this together).
       s.particles = size_t(split.sum(double(s.particles)));
       s.steps.particle_steps = uint64_t(split.sum(double(s.steps.particle_steps)));
+      s.steps.sleeping_steps = uint64_t(split.sum(double(s.steps.sleeping_steps)));
       // Each process's sinks remove its own particles; sources make the
       // same count on every process.
       for (auto& [name, n] : s.removed) n = uint64_t(split.sum(double(n)));

@@ -169,7 +169,6 @@ std::string RunSplit::unsupported(const World& world) const {
     return "solver.coupling \"single\" with solids";
   if (!world.bodies.empty() && s.solver.solid_readback == SolidReadback::Combined)
     return "solver.solid_readback \"combined\"";
-  if (s.solver.sleep.enabled) return "solver.sleep";
   return "";
 }
 

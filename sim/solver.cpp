@@ -281,7 +281,7 @@ void Solver::classifySleep() {
     wake.push_back(wakeBox(b));
   }
   for (const ElasticSolid& e : world_.elastics) wake.push_back(elasticBox(e));
-  sleeping_ = sleep_->classify(layout_, wake, params_.shifted_origin, params_.inv_dx);
+  sleeping_ = sleep_->classify(layout_, wake, params_.shifted_origin, params_.inv_dx, domain_);
   stillSleepingParticles(layout_, world_.sets);
 }
 
@@ -300,7 +300,8 @@ void Solver::particlesToGrid() {
 void Solver::updateGrid(float dt) {
   PhaseTimer timer(times_.grid);
   triad::updateGrid(layout_, grid_, flip_ ? &flip_grid_ : nullptr, gravity_, dt, walls_);
-  freezeSleepingNodes(layout_, grid_, flip_ ? &flip_grid_ : nullptr);
+  freezeSleepingNodes(layout_, grid_, flip_ ? &flip_grid_ : nullptr,
+                      sleep_ && domain_ ? &sleep_->asleepEverywhere() : nullptr);
 }
 
 void Solver::gridToParticles(float dt) {
@@ -309,7 +310,7 @@ void Solver::gridToParticles(float dt) {
   G2PStats st = triad::gridToParticles(world_.sets, layout_, params_, grid_,
                                        flip_ ? &flip_grid_ : nullptr,
                                        sleep_ ? &block_speed2_ : nullptr);
-  if (sleep_) sleep_->update(layout_, block_speed2_, params_.dt);
+  if (sleep_) sleep_->update(layout_, block_speed2_, params_.dt, domain_);
   if (world_.steps + 1 == fault_step_ && !world_.sets.empty() && world_.sets[0].size() > 0) {
     world_.sets[0].v[0].x() = std::numeric_limits<float>::quiet_NaN();
     st.finite = false;

@@ -537,15 +537,60 @@ TEST_F(Mpi, SigtermStopsEveryProcessAtTheSameStepAndTheRunResumes) {
   EXPECT_TRUE(sameFile(framePly(out, frames), framePly(dir / "one", frames)));
 }
 
+// Sleeping material across the cut: a sand layer settles and sleeps, then
+// a ball thrown up lands on it and wakes it. Every process decides for
+// every block from all processes' still times, and holds the nodes of
+// other processes' sleeping blocks at rest: the cache is one process's.
+TEST_F(Mpi, SleepingMaterialSleepsAndWakesAsUnderOneProcess) {
+  const fs::path dir = test::tempDir("sleep");
+  json j = test::baseScene("mpi_sleep", {0.4, 1.4, 0.4}, 0.02);
+  j["frames"] = {{"count", 12}, {"fps", 12}};
+  j["solver"] = {{"sleep", {{"speed", 0.01}, {"delay", 0.1}}}};
+  j["materials"] = {{"sand", sandMaterial()}};
+  j["objects"] = {{{"name", "layer"},
+                   {"kind", "mpm"},
+                   {"material", "sand"},
+                   {"shape", test::box({0.02, 0.0, 0.02}, {0.38, 0.1, 0.38})}},
+                  {{"name", "ball"},
+                   {"kind", "rigid"},
+                   {"density", 3000},
+                   {"friction", 0.5},
+                   {"velocity", {0, 4.0, 0}},
+                   {"shape", {{"sphere", {{"center", {0.2, 0.3, 0.2}}, {"radius", 0.05}}}}}}};
+  j["output"] = {{"vdb", false}, {"png", false}};
+  const std::string scene = test::writeScene(dir, j);
+  const test::CliResult one = run(dir, scene, dir / "one", "OMP_NUM_THREADS=1");
+  ASSERT_EQ(one.status, 0) << one.err;
+  const json ref = runJson(dir / "one");
+  // Most of the layer slept before the ball came.
+  EXPECT_GT(ref["sleeping_particle_substeps"].get<double>(),
+            0.3 * ref["particle_substeps"].get<double>());
+  for (int n : {2, 3}) {
+    const fs::path out = dir / ("np" + std::to_string(n));
+    const test::CliResult r = run(dir, scene, out, mpirun(n));
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(runJson(out)["sleeping_particle_substeps"], ref["sleeping_particle_substeps"]) << n;
+    for (const char* f : {"bodies/rigid_states.csv", "bodies/forces.csv"})
+      EXPECT_TRUE(sameFile(out / f, dir / "one" / f)) << n << " " << f;
+    for (int f = 1; f <= 12; ++f)
+      EXPECT_TRUE(sameFile(framePly(out, f), framePly(dir / "one", f))) << n << " frame " << f;
+  }
+}
+
 // What the split does not run yet is refused by name, once, before any work.
-TEST_F(Mpi, SleepIsRefusedByName) {
+TEST_F(Mpi, SingleGridCouplingIsRefusedByName) {
   const fs::path dir = test::tempDir("refused");
   json j = everyMaterial(2);
-  j["solver"] = {{"sleep", {{"speed", 0.01}, {"delay", 0.1}}}};
+  j["solver"] = {{"coupling", "single"}};
+  j["objects"].push_back(
+      {{"name", "ball"},
+       {"kind", "rigid"},
+       {"density", 500},
+       {"shape", {{"sphere", {{"center", {0.3, 0.3, 0.1}}, {"radius", 0.04}}}}}});
   const std::string scene = test::writeScene(dir, j);
   const test::CliResult r = run(dir, scene, dir / "out", mpirun(2));
   EXPECT_EQ(r.status, 2) << r.err;
-  EXPECT_NE(r.err.find("solver.sleep"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("solver.coupling"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find(scene), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(dir / "out" / "particles"));
 }

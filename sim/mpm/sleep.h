@@ -21,6 +21,7 @@
 namespace triad {
 
 struct ParticleSet;
+class DomainExchange;
 
 // World-space box that keeps the blocks it touches awake.
 struct WakeBox {
@@ -47,13 +48,22 @@ class SleepTracker {
   // After binning: carries the still times over to the new blocks and fills
   // layout.asleep. Blocks touched by `wake` (world boxes) stay awake.
   // `origin`, `inv_dx`: the binner's shifted origin and inverse spacing.
-  // Returns the number of sleeping particles.
+  // Returns the number of sleeping particles. Split over processes
+  // (`split`), a block's neighbours may be another process's: every
+  // process's blocks and still times are gathered first, and every process
+  // decides for all blocks alike (asleepEverywhere()).
   size_t classify(GridLayout& layout, const std::vector<WakeBox>& wake, const Vec3f& origin,
-                  float inv_dx);
+                  float inv_dx, DomainExchange* split = nullptr);
 
   // After the gather: `speed2` holds each awake block's largest squared
-  // particle speed (sleeping blocks: anything). Advances the still times.
-  void update(const GridLayout& layout, const std::vector<float>& speed2, double dt);
+  // particle speed (sleeping blocks: anything). Advances the still times;
+  // split over processes, the state kept is every process's.
+  void update(const GridLayout& layout, const std::vector<float>& speed2, double dt,
+              DomainExchange* split = nullptr);
+
+  // The keys of every particle block asleep in this step, sorted (on every
+  // process of a split run).
+  const std::vector<uint64_t>& asleepEverywhere() const { return asleep_keys_; }
 
   // Whether every particle block of the last step within `box` had been
   // still for the delay (blocks that a body resting there would let sleep).
@@ -73,12 +83,16 @@ class SleepTracker {
   SleepState state_;
   std::vector<double> still_;       // per block of the current layout
   std::vector<uint32_t> counts_;  // per block of the current layout
+  std::vector<uint64_t> asleep_keys_;
 };
 
 // Holds the grid nodes of sleeping blocks' stencils at rest (after the grid
-// update; with FLIP, their velocity change too).
+// update; with FLIP, their velocity change too). Split over processes,
+// `asleep` lists every process's sleeping blocks, whose stencils may reach
+// this process's nodes.
 void freezeSleepingNodes(const GridLayout& layout, std::vector<GridNode>& grid,
-                         std::vector<GridNode>* flip);
+                         std::vector<GridNode>* flip,
+                         const std::vector<uint64_t>* asleep = nullptr);
 
 // Sets the velocity and affine matrix of sleeping blocks' particles to zero:
 // they stay where they are until woken, and wake from rest.
