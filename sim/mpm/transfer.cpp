@@ -99,6 +99,40 @@ void scatterSet(const ParticleSet& set, const std::vector<uint32_t>& off, size_t
   }
 }
 
+// Whether particle block pb scatters into a layered grid block (a split run).
+bool touchesLayer(const GridLayout& layout, size_t pb) {
+  for (uint32_t gb : layout.neighbours[pb])
+    if (layout.layered[gb] >= 0) return true;
+  return false;
+}
+
+// Adds particle block pb's halo sums to the grid, those on layered blocks
+// to their colour's layer. Kept out of line: inlined into the scatter it
+// changed how the compiler laid out the gather in this file (jelly G2P
+// 2.1 -> 2.8 s).
+template <bool kFlip>
+[[gnu::noinline]] void addToLayers(const GridLayout& layout, size_t pb, int colour,
+                                   const HaloBuffer<4>& buf, const HaloBuffer<4>& fbuf,
+                                   std::vector<GridNode>& grid, std::vector<GridNode>* flip,
+                                   std::vector<GridNode>& layers,
+                                   std::vector<GridNode>* flip_layers) {
+  forHalo(layout, pb, [&](int h, size_t node) {
+    const int32_t slot = layout.layered[node / kBlockNodes];
+    const size_t at = (size_t(slot) * 8 + size_t(colour)) * kBlockNodes + node % kBlockNodes;
+    GridNode& g = slot < 0 ? grid[node] : layers[at];
+    g.m += buf.d[h][0];
+    g.v[0] += buf.d[h][1];
+    g.v[1] += buf.d[h][2];
+    g.v[2] += buf.d[h][3];
+    if constexpr (kFlip) {
+      GridNode& f = slot < 0 ? (*flip)[node] : (*flip_layers)[at];
+      f.v[0] += fbuf.d[h][1];
+      f.v[1] += fbuf.d[h][2];
+      f.v[2] += fbuf.d[h][3];
+    }
+  });
+}
+
 template <bool kFlip>
 void scatterAll(const std::vector<ParticleSet>& sets, const GridLayout& layout,
                 const TransferParams& p, std::vector<GridNode>& grid, std::vector<GridNode>* flip,
@@ -122,35 +156,22 @@ void scatterAll(const std::vector<ParticleSet>& sets, const GridLayout& layout,
         if constexpr (kFlip) std::memset(fbuf.d, 0, sizeof(fbuf.d));
         for (size_t s = 0; s < sets.size(); ++s)
           scatterSet<kFlip>(sets[s], layout.offsets[s], pb, p, layout, buf, &fbuf);
-        auto add = [&](int h, GridNode& g, GridNode* f) {
+        if (layered && touchesLayer(layout, pb)) {
+          addToLayers<kFlip>(layout, pb, colour, buf, fbuf, grid, flip, *layers, flip_layers);
+          continue;
+        }
+        forHalo(layout, pb, [&](int h, size_t node) {
+          GridNode& g = grid[node];
           g.m += buf.d[h][0];
           g.v[0] += buf.d[h][1];
           g.v[1] += buf.d[h][2];
           g.v[2] += buf.d[h][3];
           if constexpr (kFlip) {
-            f->v[0] += fbuf.d[h][1];
-            f->v[1] += fbuf.d[h][2];
-            f->v[2] += fbuf.d[h][3];
+            GridNode& f = (*flip)[node];
+            f.v[0] += fbuf.d[h][1];
+            f.v[1] += fbuf.d[h][2];
+            f.v[2] += fbuf.d[h][3];
           }
-        };
-        bool touches_layer = false;
-        if (layered)
-          for (uint32_t gb : layout.neighbours[pb]) touches_layer |= layout.layered[gb] >= 0;
-        if (!touches_layer) {
-          forHalo(layout, pb, [&](int h, size_t node) {
-            add(h, grid[node], kFlip ? &(*flip)[node] : nullptr);
-          });
-          continue;
-        }
-        // Nodes of blocks whose sums cross processes go to this colour's layer.
-        forHalo(layout, pb, [&](int h, size_t node) {
-          const int32_t slot = layout.layered[node / kBlockNodes];
-          if (slot < 0) {
-            add(h, grid[node], kFlip ? &(*flip)[node] : nullptr);
-            return;
-          }
-          const size_t at = (size_t(slot) * 8 + size_t(colour)) * kBlockNodes + node % kBlockNodes;
-          add(h, (*layers)[at], kFlip ? &(*flip_layers)[at] : nullptr);
         });
       }
     }
