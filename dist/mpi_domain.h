@@ -4,7 +4,12 @@
 // into one run per process so that each holds about as many particles; every
 // particle lives on the process that owns its block, and grid blocks that particles of one process
 // scatter into but another owns are summed by their owner, which sends the updated velocities back
-// (sim/mpm/domain.h says when).
+// (sim/mpm/domain.h says when). Each process owns one run of keys, in
+// process order, so whatever is gathered in process order is in key order,
+// the order one process holds its blocks in: sums over gathered records,
+// and particles' order, are then one process's, and a split run writes a
+// single process's bytes. A cut into boxes instead of runs would have to
+// sort what it gathers by key.
 #include <mpi.h>
 
 #include <cstdint>
