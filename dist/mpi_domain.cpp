@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <climits>
+#include <cstdlib>
 #include <cstring>
 #include <stdexcept>
 
@@ -123,6 +124,8 @@ void check(int rc, const char* what) {
 }  // namespace
 
 MpiDomain::MpiDomain(MPI_Comm comm, const TransferParams& params) : comm_(comm), params_(params) {
+  // Tests shrink the gather's chunks to exercise them on small scenes.
+  if (const char* c = std::getenv("TRIAD_MPI_GATHER_CHUNK")) gather_chunk_ = std::stoul(c);
   MPI_Comm_rank(comm_, &rank_);
   MPI_Comm_size(comm_, &size_);
   cut_.assign(size_t(size_) + 1, UINT64_MAX);
@@ -501,40 +504,53 @@ double MpiDomain::sum(double value) {
 
 void MpiDomain::gather(const std::vector<ParticleSet>& sets, std::vector<ParticleSet>& all) {
   const double t0 = MPI_Wtime();
+  constexpr int kTag = 7;
   all = emptyLike(sets);
   for (size_t s = 0; s < sets.size(); ++s) {
-    std::vector<unsigned char> mine;
-    mine.reserve(sets[s].size() * recordBytes(sets[s]));
-    const bool numbered = !seq_fresh_ && s < seq_.size() && seq_[s].size() == sets[s].size();
-    for (size_t i = 0; i < sets[s].size(); ++i)
-      packParticle(sets[s], i, numbered ? seq_[s][i] : uint64_t(rank_) << 40 | i, mine);
-    if (mine.size() > size_t(INT_MAX)) throw std::runtime_error("MPI: message over 2 GiB");
-    int bytes = int(mine.size());
-    std::vector<int> counts(rank_ == 0 ? size_t(size_) : 0), offsets(counts.size());
-    check(MPI_Gather(&bytes, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, comm_), "Gather");
-    std::vector<unsigned char> in;
-    if (rank_ == 0) {
-      size_t total = 0;
-      for (size_t r = 0; r < counts.size(); ++r) {
-        offsets[r] = int(total);
-        total += size_t(counts[r]);
+    const ParticleSet& set = sets[s];
+    const size_t record = recordBytes(set);
+    const size_t per_chunk = std::max<size_t>(1, gather_chunk_ / record);
+    const bool numbered = !seq_fresh_ && s < seq_.size() && seq_[s].size() == set.size();
+    std::vector<unsigned char> chunk;
+    auto pack = [&](size_t first, size_t n) {
+      chunk.clear();
+      for (size_t i = first; i < first + n; ++i)
+        packParticle(set, i, numbered ? seq_[s][i] : uint64_t(rank_) << 40 | i, chunk);
+    };
+    uint64_t count = set.size();
+    std::vector<uint64_t> counts(rank_ == 0 ? size_t(size_) : 0);
+    check(MPI_Gather(&count, 1, MPI_UINT64_T, counts.data(), 1, MPI_UINT64_T, 0, comm_), "Gather");
+    // In chunks of bounded size: no message passes MPI's int counts, and
+    // no process holds more than its own share and one chunk besides.
+    if (rank_ != 0) {
+      for (size_t first = 0; first < set.size(); first += per_chunk) {
+        pack(first, std::min(per_chunk, set.size() - first));
+        check(MPI_Send(chunk.data(), int(chunk.size()), MPI_BYTE, 0, kTag, comm_), "Send");
       }
-      if (total > size_t(INT_MAX)) throw std::runtime_error("MPI: gathered set over 2 GiB");
-      in.resize(total);
+      continue;
     }
-    check(MPI_Gatherv(mine.data(), bytes, MPI_BYTE, in.data(), counts.data(), offsets.data(),
-                      MPI_BYTE, 0, comm_),
-          "Gatherv");
-    if (rank_ != 0) continue;
+    ParticleSet& out = all[s];
+    uint64_t total = 0;
+    for (const uint64_t c : counts) total += c;
+    out.reserve(total);
+    std::vector<uint64_t> seq;
+    seq.reserve(total);
+    for (int r = 0; r < size_; ++r)
+      for (size_t first = 0; first < counts[size_t(r)]; first += per_chunk) {
+        const size_t n = std::min<size_t>(per_chunk, counts[size_t(r)] - first);
+        if (r == 0) {
+          pack(first, n);
+        } else {
+          chunk.resize(n * record);
+          check(MPI_Recv(chunk.data(), int(chunk.size()), MPI_BYTE, r, kTag, comm_,
+                         MPI_STATUS_IGNORE),
+                "Recv");
+        }
+        const unsigned char* p = chunk.data();
+        for (size_t j = 0; j < n; ++j) unpackParticle(out, seq, p);
+      }
     // In the order one process would hold them in: its checkpoints and
     // volumes are then the same bytes.
-    ParticleSet& out = all[s];
-    const size_t count = in.size() / recordBytes(sets[s]);
-    out.reserve(count);
-    std::vector<uint64_t> seq;
-    seq.reserve(count);
-    const unsigned char* p = in.data();
-    for (size_t i = 0; i < count; ++i) unpackParticle(out, seq, p);
     sortSet(out, seq);
   }
   comm_seconds_ += MPI_Wtime() - t0;

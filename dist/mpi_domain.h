@@ -32,8 +32,9 @@ class MpiDomain final : public DomainExchange {
   // particle to its new owner. Called with every process holding the whole
   // world, `whole` keeps only this process's share without any exchange.
   void balance(std::vector<ParticleSet>& sets, bool whole = false);
-  // Every process's particles, set by set in process order, on process 0
-  // (`all` holds the sets' descriptions and no particles on the others).
+  // Every process's particles, set by set in the order one process holds
+  // them in, on process 0 (`all` holds the sets' descriptions and no
+  // particles on the others), sent in chunks of 64 MiB.
   void gather(const std::vector<ParticleSet>& sets, std::vector<ParticleSet>& all);
   double sum(double value);
 
@@ -95,6 +96,7 @@ class MpiDomain final : public DomainExchange {
   uint64_t bytes_sent_ = 0;
   uint64_t received_ = 0;
   double balance_seconds_ = 0.0;
+  size_t gather_chunk_ = size_t(64) << 20;  // bytes of particles per message to process 0
 };
 
 }  // namespace triad
