@@ -5,6 +5,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <stdexcept>
+#include <thread>
 
 #include "sim/mpm/particles.h"
 
@@ -148,33 +149,57 @@ int MpiDomain::ownerOf(uint64_t key) const {
 
 std::vector<std::vector<unsigned char>> MpiDomain::exchange(
     const std::vector<std::vector<unsigned char>>& out) {
+  // A sparse exchange (Hoefler, Siebert and Lumsdaine's NBX): each process
+  // sends only to those it has bytes for, receives whatever arrives, and
+  // a non-blocking barrier, entered once its own sends were all received,
+  // tells every process when nothing is left in flight. Its cost grows with
+  // the neighbours a process has and the log of the process count, not
+  // with the process count. Rounds alternate between two tags: a process
+  // can be at most one round ahead of another.
   const double t0 = MPI_Wtime();
+  const int tag = kExchangeTag + (round_++ & 1);
   const size_t n = size_t(size_);
-  std::vector<int> send_counts(n), recv_counts(n), send_offsets(n), recv_offsets(n);
+  std::vector<MPI_Request> sends;
   for (size_t r = 0; r < n; ++r) {
+    if (r == size_t(rank_) || out[r].empty()) continue;
     if (out[r].size() > size_t(INT_MAX)) throw std::runtime_error("MPI: message over 2 GiB");
-    send_counts[r] = int(r == size_t(rank_) ? 0 : out[r].size());
+    sends.emplace_back();
+    check(
+        MPI_Issend(out[r].data(), int(out[r].size()), MPI_BYTE, int(r), tag, comm_, &sends.back()),
+        "Issend");
+    bytes_sent_ += out[r].size();
   }
-  check(MPI_Alltoall(send_counts.data(), 1, MPI_INT, recv_counts.data(), 1, MPI_INT, comm_),
-        "Alltoall");
-  std::vector<unsigned char> send, recv;
-  for (size_t r = 0; r < n; ++r) {
-    send_offsets[r] = int(send.size());
-    if (r != size_t(rank_)) send.insert(send.end(), out[r].begin(), out[r].end());
-  }
-  size_t total = 0;
-  for (size_t r = 0; r < n; ++r) {
-    recv_offsets[r] = int(total);
-    total += size_t(recv_counts[r]);
-  }
-  recv.resize(total);
-  check(MPI_Alltoallv(send.data(), send_counts.data(), send_offsets.data(), MPI_BYTE, recv.data(),
-                      recv_counts.data(), recv_offsets.data(), MPI_BYTE, comm_),
-        "Alltoallv");
   std::vector<std::vector<unsigned char>> in(n);
-  for (size_t r = 0; r < n; ++r)
-    in[r].assign(recv.begin() + recv_offsets[r], recv.begin() + recv_offsets[r] + recv_counts[r]);
-  bytes_sent_ += send.size();
+  MPI_Request barrier = MPI_REQUEST_NULL;
+  bool barrier_started = false;
+  for (;;) {
+    int arrived = 0;
+    MPI_Status status;
+    check(MPI_Iprobe(MPI_ANY_SOURCE, tag, comm_, &arrived, &status), "Iprobe");
+    if (arrived) {
+      int bytes = 0;
+      check(MPI_Get_count(&status, MPI_BYTE, &bytes), "Get_count");
+      std::vector<unsigned char>& into = in[size_t(status.MPI_SOURCE)];
+      into.resize(size_t(bytes));
+      check(
+          MPI_Recv(into.data(), bytes, MPI_BYTE, status.MPI_SOURCE, tag, comm_, MPI_STATUS_IGNORE),
+          "Recv");
+    }
+    int done = 0;
+    if (!barrier_started) {
+      check(MPI_Testall(int(sends.size()), sends.data(), &done, MPI_STATUSES_IGNORE), "Testall");
+      if (done) {
+        check(MPI_Ibarrier(comm_, &barrier), "Ibarrier");
+        barrier_started = true;
+      }
+    } else {
+      check(MPI_Test(&barrier, &done, MPI_STATUS_IGNORE), "Test");
+      if (done) break;
+    }
+    // Waiting: let a process that shares this core run (more processes
+    // than cores, or other work on the machine).
+    if (!arrived) std::this_thread::yield();
+  }
   comm_seconds_ += MPI_Wtime() - t0;
   return in;
 }
@@ -270,6 +295,7 @@ void MpiDomain::migrate(std::vector<ParticleSet>& sets) {
   const size_t n = size_t(size_);
   std::vector<std::vector<unsigned char>> out(n);
   std::vector<std::vector<uint32_t>> leaving(n);
+  std::vector<size_t> moving(n, 0);
   for (size_t k = 0; k < sets.size(); ++k) {
     ParticleSet& s = sets[k];
     for (auto& l : leaving) l.clear();
@@ -285,6 +311,7 @@ void MpiDomain::migrate(std::vector<ParticleSet>& sets) {
     for (size_t r = 0; r < n; ++r) {
       put(out[r], uint32_t(leaving[r].size()));
       for (uint32_t i : leaving[r]) packParticle(s, i, seq_[k][i], out[r]);
+      moving[r] += leaving[r].size();
     }
     if (any) {
       keepUnflagged(s, gone);
@@ -294,6 +321,9 @@ void MpiDomain::migrate(std::vector<ParticleSet>& sets) {
       seq_[k].resize(kept);
     }
   }
+  // Nothing for a process: no message at all (the exchange is sparse).
+  for (size_t r = 0; r < n; ++r)
+    if (moving[r] == 0) out[r].clear();
   const auto in = exchange(out);
   // Arrivals join at the end, by sending process.
   std::vector<size_t> own(sets.size()), below(sets.size());

@@ -68,7 +68,8 @@ class MpiDomain final : public DomainExchange {
   template <typename T, typename F>
   void exchangeBlocks(std::vector<T>& per_node, const std::vector<std::vector<uint32_t>>& send,
                       const std::vector<std::vector<uint32_t>>& receive, F&& combine);
-  // Sends bytes[dest] to every process and returns what each sent here.
+  // Sends out[dest] to each process it is not empty for, and returns what
+  // each sent here (empty where nothing came).
   std::vector<std::vector<unsigned char>> exchange(
       const std::vector<std::vector<unsigned char>>& out);
 
@@ -97,6 +98,8 @@ class MpiDomain final : public DomainExchange {
   uint64_t received_ = 0;
   double balance_seconds_ = 0.0;
   size_t gather_chunk_ = size_t(64) << 20;  // bytes of particles per message to process 0
+  static constexpr int kExchangeTag = 100;  // and 101: exchange() alternates
+  uint64_t round_ = 0;                      // exchanges so far
 };
 
 }  // namespace triad
