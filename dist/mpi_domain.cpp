@@ -104,6 +104,25 @@ void keepUnflagged(ParticleSet& set, const std::vector<uint8_t>& gone) {
   set.object.resize(out);
 }
 
+// Gives `set` room for `need` particles and an eighth more; `shrink`, or
+// room for over twice the need (the material moved to other processes),
+// gives the rest of its memory back. Arrays that double would hold up to
+// twice a process's share.
+void fitCapacity(ParticleSet& set, size_t need, bool shrink = false) {
+  const size_t room = set.x.capacity();
+  if (need <= room && room <= 2 * need + 4096 && !shrink) return;
+  if (shrink || room > 2 * need + 4096) {
+    set.x.shrink_to_fit();
+    set.v.shrink_to_fit();
+    set.C.shrink_to_fit();
+    set.F.shrink_to_fit();
+    set.J.shrink_to_fit();
+    set.id.shrink_to_fit();
+    set.object.shrink_to_fit();
+  }
+  set.reserve(need + need / 8);
+}
+
 // Empty copies of the sets' descriptions (material, masses), no particles.
 std::vector<ParticleSet> emptyLike(const std::vector<ParticleSet>& sets) {
   std::vector<ParticleSet> out;
@@ -269,6 +288,8 @@ void MpiDomain::balance(std::vector<ParticleSet>& sets, bool whole) {
       if (!gone[i]) seq_[k].push_back(i);
     }
     keepUnflagged(s, gone);
+    fitCapacity(s, s.size(), /*shrink=*/true);  // the whole world's room, given back
+    seq_[k].shrink_to_fit();
   }
   seq_fresh_ = false;
   bin_order_.clear();
@@ -325,6 +346,18 @@ void MpiDomain::migrate(std::vector<ParticleSet>& sets) {
   for (size_t r = 0; r < n; ++r)
     if (moving[r] == 0) out[r].clear();
   const auto in = exchange(out);
+  // Room for the arrivals.
+  std::vector<size_t> arriving(sets.size(), 0);
+  for (size_t r = 0; r < n; ++r) {
+    if (r == size_t(rank_) || in[r].empty()) continue;
+    const unsigned char* p = in[r].data();
+    for (size_t k = 0; k < sets.size(); ++k) {
+      const uint32_t count = take<uint32_t>(p);
+      arriving[k] += count;
+      p += size_t(count) * recordBytes(sets[k]);
+    }
+  }
+  for (size_t k = 0; k < sets.size(); ++k) fitCapacity(sets[k], sets[k].size() + arriving[k]);
   // Arrivals join at the end, by sending process.
   std::vector<size_t> own(sets.size()), below(sets.size());
   for (size_t k = 0; k < sets.size(); ++k) own[k] = sets[k].size();
