@@ -145,7 +145,9 @@ void check(int rc, const char* what) {
 
 MpiDomain::MpiDomain(MPI_Comm comm, const TransferParams& params) : comm_(comm), params_(params) {
   // Tests shrink the gather's chunks to exercise them on small scenes.
-  if (const char* c = std::getenv("TRIAD_MPI_GATHER_CHUNK")) gather_chunk_ = std::stoul(c);
+  if (const char* c = std::getenv("TRIAD_MPI_GATHER_CHUNK"))
+    if (const unsigned long long bytes = std::strtoull(c, nullptr, 10); bytes > 0)
+      gather_chunk_ = std::min<size_t>(size_t(bytes), size_t(INT_MAX));
   MPI_Comm_rank(comm_, &rank_);
   MPI_Comm_size(comm_, &size_);
   cut_.assign(size_t(size_) + 1, UINT64_MAX);
