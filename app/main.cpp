@@ -45,6 +45,12 @@ int main(int argc, char** argv) {
                     "a thread of its own from a copy while the next one steps)");
   run_cmd->add_flag("--resume", run.resume,
                     "Continue from the last complete frame's checkpoint in the output directory");
+  run_cmd
+      ->add_option("--balance", run.balance,
+                   "Under mpirun: cut the grid between processes for equal particle counts "
+                   "(particles, the default) or for equal work, measured each frame (work). "
+                   "Results are the same bytes either way")
+      ->check(CLI::IsMember({"particles", "work"}));
 
   triad::RenderCacheOptions render;
   CLI::App* render_cmd =

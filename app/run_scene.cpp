@@ -232,7 +232,7 @@ int runScene(const RunOptions& options_in) {
   // share of the particles from here on. Only process 0 counts the steps
   // before a resume, so that their sum is the run's.
   split.barrier();
-  split.attach(world, solver);
+  split.attach(world, solver, options.balance == "work");
   if (!split.root()) before = StepRecord{};
   rec.frames_written = resumed_from + 1;  // frames 0..resumed_from are on disk
   rec.resume = options.resume;

@@ -15,6 +15,8 @@ struct RunOptions {
   std::string quality;  // --quality preset (import/quality.h); empty: the scene as written
   bool no_probe = false;  // no rate probe before the first frame (app/rate_probe.h)
   bool no_overlap = false;  // write each frame before stepping on (app/output_thread.h)
+  // Split over processes: "particles" (equal counts) or "work" (equal time).
+  std::string balance = "particles";
 };
 
 // Exit statuses of the command line contract.

@@ -46,9 +46,10 @@ RunSplit::~RunSplit() {
   if (started && !ended) MPI_Finalize();
 }
 
-void RunSplit::attach(World& world, Solver& solver) {
+void RunSplit::attach(World& world, Solver& solver, bool follow_work) {
   if (!active()) return;
   domain_ = std::make_unique<MpiDomain>(MPI_COMM_WORLD, solver.transferParams());
+  if (follow_work) domain_->followWork();
   domain_->balance(world.sets, /*whole=*/true);
   solver.setDomain(domain_.get());
 }
@@ -75,6 +76,12 @@ double RunSplit::sum(double value) {
 
 int RunSplit::anyInterrupt(int local) {
   if (!active()) return local;
+  if (domain_) {
+    // Through the domain, so that waiting here counts as communication.
+    std::vector<double> any{double(local)};
+    domain_->maxOverProcesses(any);
+    return int(any[0]);
+  }
   int any = local;
   MPI_Allreduce(MPI_IN_PLACE, &any, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
   return any;
@@ -143,7 +150,7 @@ RunSplit::RunSplit() {
         "MPI: install libopenmpi-dev (scripts/setup.sh) and rebuild, or run it alone");
 }
 RunSplit::~RunSplit() = default;
-void RunSplit::attach(World&, Solver&) {}
+void RunSplit::attach(World&, Solver&, bool) {}
 void RunSplit::rebalance(World&) {}
 std::shared_ptr<const World> RunSplit::gather(const World&) {
   return nullptr;

@@ -32,8 +32,9 @@ class RunSplit {
   // support yet), or "".
   std::string unsupported(const World& world) const;
   // Splits the world between the processes (each holds the whole world on
-  // entry and keeps its share) and has the solver exchange through them.
-  void attach(World& world, Solver& solver);
+  // entry and keeps its share) and has the solver exchange through them;
+  // `follow_work`: later cuts move towards equal work, not equal counts.
+  void attach(World& world, Solver& solver, bool follow_work = false);
   // Moves the split to where the particles are now (each frame).
   void rebalance(World& world);
   // The world with every process's particles, on process 0 (null on the others).

@@ -227,6 +227,9 @@ std::vector<std::vector<unsigned char>> MpiDomain::exchange(
 
 void MpiDomain::balance(std::vector<ParticleSet>& sets, bool whole) {
   const double t0 = MPI_Wtime();
+  // This process's own work since the last cut: the time between them less
+  // the time spent in exchanges (waiting for the others included).
+  const double work = (t0 - cut_time_) - (comm_seconds_ - cut_comm_);
   // Particles per block here, as (key, count) sorted by key.
   std::vector<uint64_t> keys;
   for (const ParticleSet& s : sets)
@@ -258,26 +261,49 @@ void MpiDomain::balance(std::vector<ParticleSet>& sets, bool whole) {
   }
   uint64_t total = 0;
   for (size_t i = 1; i < pairs.size(); i += 2) total += pairs[i];
-  // Cut before the block where the running count comes nearest each
-  // process's share.
+  // Where each cut falls, in particles before it: equal shares, or, when
+  // the split follows the work, each cut moved from where it is towards the
+  // faster of its two processes by half their difference in work (a step
+  // of diffusion: work every process repeats alike cancels out).
+  std::vector<double> target(size_t(size_) + 1, 0.0);
+  for (int r = 1; r < size_; ++r) target[size_t(r)] = double(total) * r / size_;
+  if (by_work_ && !whole && seq_.size() == sets.size()) {
+    const std::vector<double> works = allGatherValues(*this, std::vector<double>{work});
+    std::vector<double> held(size_t(size_), 0.0);  // per process, under the cut in force
+    for (size_t i = 0; i + 1 < pairs.size(); i += 2)
+      held[size_t(ownerOf(pairs[i]))] += double(pairs[i + 1]);
+    double before = 0.0;
+    for (int r = 1; r < size_; ++r) {
+      before += held[size_t(r - 1)];
+      const double a = works[size_t(r - 1)], c = works[size_t(r)];
+      const double shift =
+          a + c > 0.0 ? 0.5 * (a - c) / (a + c) * 0.5 * (held[size_t(r - 1)] + held[size_t(r)])
+                      : 0.0;
+      target[size_t(r)] = std::clamp(before - shift, target[size_t(r - 1)], double(total));
+    }
+  }
+  // Cut before the block where the running count comes nearest each target.
   std::vector<uint64_t> cut(size_t(size_) + 1, UINT64_MAX);
   cut[0] = 0;
   uint64_t below = 0;  // particles in blocks before block b
   size_t b = 0, blocks = pairs.size() / 2;
   for (int r = 1; r < size_; ++r) {
-    const double target = double(total) * r / size_;
-    while (b < blocks && double(below + pairs[2 * b + 1]) <= target) below += pairs[2 * b++ + 1];
+    const double goal = target[size_t(r)];
+    while (b < blocks && double(below + pairs[2 * b + 1]) <= goal) below += pairs[2 * b++ + 1];
     // Inside block b the count passes the target: cut before or after it.
     size_t c = b;
-    if (b < blocks && double(below + pairs[2 * b + 1]) - target < target - double(below)) c = b + 1;
+    if (b < blocks && double(below + pairs[2 * b + 1]) - goal < goal - double(below)) c = b + 1;
     cut[size_t(r)] = c < blocks ? pairs[2 * c] : UINT64_MAX;
     cut[size_t(r)] = std::max(cut[size_t(r)], cut[size_t(r - 1)]);
   }
   cut_ = cut;
   comm_seconds_ += MPI_Wtime() - t0;
+  cut_comm_ = comm_seconds_;
   if (!whole) {
     migrate(sets);
     balance_seconds_ += MPI_Wtime() - t0;
+    cut_time_ = MPI_Wtime();
+    cut_comm_ = comm_seconds_;
     return;
   }
   // Every process holds the whole world, in the order one process would.
@@ -295,6 +321,8 @@ void MpiDomain::balance(std::vector<ParticleSet>& sets, bool whole) {
   }
   seq_fresh_ = false;
   bin_order_.clear();
+  cut_time_ = MPI_Wtime();
+  cut_comm_ = comm_seconds_;
 }
 
 void MpiDomain::sortBySequence(std::vector<ParticleSet>& sets) {
@@ -563,7 +591,9 @@ std::vector<unsigned char> MpiDomain::allGather(const std::vector<unsigned char>
 }
 
 double MpiDomain::sum(double value) {
+  const double t0 = MPI_Wtime();
   check(MPI_Allreduce(MPI_IN_PLACE, &value, 1, MPI_DOUBLE, MPI_SUM, comm_), "Allreduce");
+  comm_seconds_ += MPI_Wtime() - t0;
   return value;
 }
 

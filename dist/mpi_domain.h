@@ -28,10 +28,15 @@ class MpiDomain final : public DomainExchange {
   int size() const { return size_; }
 
   // Cuts the blocks so that each process holds about the same
-  // number of particles, from every process's particles, then moves each
-  // particle to its new owner. Called with every process holding the whole
-  // world, `whole` keeps only this process's share without any exchange.
+  // number of particles (or, after followWork(), does about the same work),
+  // from every process's particles, then moves each particle to its new
+  // owner. Called with every process holding the whole world, `whole`
+  // keeps only this process's share without any exchange. Where the cut
+  // falls changes no result (the sums keep one order).
   void balance(std::vector<ParticleSet>& sets, bool whole = false);
+  // From now on each cut moves towards equal work (each process's time
+  // outside exchanges since the last cut) rather than equal particle counts.
+  void followWork() { by_work_ = true; }
   // Every process's particles, set by set in the order one process holds
   // them in, on process 0 (`all` holds the sets' descriptions and no
   // particles on the others), sent in chunks of 64 MiB.
@@ -100,6 +105,8 @@ class MpiDomain final : public DomainExchange {
   size_t gather_chunk_ = size_t(64) << 20;  // bytes of particles per message to process 0
   static constexpr int kExchangeTag = 100;  // and 101: exchange() alternates
   uint64_t round_ = 0;                      // exchanges so far
+  bool by_work_ = false;
+  double cut_time_ = 0.0, cut_comm_ = 0.0;  // when the last cut was made, and comm_seconds_ then
 };
 
 }  // namespace triad
