@@ -110,10 +110,13 @@ void RunSplit::record(RunRecord& rec, const World& world) {
       throw std::runtime_error("the solids' states differ between process 0 and process " +
                                std::to_string(r) + " at t = " + std::to_string(world.time) +
                                " s: the split run went wrong (please report it)");
-  // Each process's figures for run.json, five per process.
-  const std::vector<double> mine{double(world.particleCount()), domain_->commSeconds(),
-                                 domain_->balanceSeconds(), double(domain_->bytesSent()),
-                                 double(domain_->particlesReceived())};
+  // Each process's figures for run.json, six per process.
+  const std::vector<double> mine{double(world.particleCount()),
+                                 domain_->commSeconds(),
+                                 domain_->balanceSeconds(),
+                                 double(domain_->bytesSent()),
+                                 double(domain_->particlesReceived()),
+                                 double(peakResidentBytes())};
   const std::vector<double> all = allGatherValues(*domain_, mine);
   if (!root()) return;
   auto column = [&](size_t k) {
@@ -128,6 +131,8 @@ void RunSplit::record(RunRecord& rec, const World& world) {
   rec.mpi_balance_seconds = column(2);
   rec.mpi_bytes_sent.assign(bytes.begin(), bytes.end());
   rec.mpi_received.assign(received.begin(), received.end());
+  const std::vector<double> rss = column(5);
+  rec.mpi_peak_rss.assign(rss.begin(), rss.end());
 }
 
 void RunSplit::barrier() {

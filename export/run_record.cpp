@@ -33,7 +33,8 @@ void writeRunRecord(const std::string& path, const RunRecord& rec) {
                 {"comm_seconds", rec.mpi_comm_seconds},
                 {"rebalance_seconds", rec.mpi_balance_seconds},
                 {"bytes_sent", rec.mpi_bytes_sent},
-                {"particles_received", rec.mpi_received}};
+                {"particles_received", rec.mpi_received},
+                {"peak_rss_bytes", rec.mpi_peak_rss}};
   j["quality"] = {{"preset", rec.quality.empty() ? nlohmann::ordered_json(nullptr)
                                                  : nlohmann::ordered_json(rec.quality)},
                   {"dx", rec.dx},

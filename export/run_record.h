@@ -67,6 +67,7 @@ struct RunRecord {
   std::vector<std::vector<uint64_t>> mpi_particles;
   std::vector<double> mpi_comm_seconds, mpi_balance_seconds;
   std::vector<uint64_t> mpi_bytes_sent, mpi_received;
+  std::vector<uint64_t> mpi_peak_rss;  // per process (peak_rss_bytes is process 0's)
 };
 
 void writeRunRecord(const std::string& path, const RunRecord& rec);

@@ -184,6 +184,8 @@ TEST_F(Mpi, TwoAndThreeProcessesAgreeWithOne) {
       for (const json& c : f) EXPECT_NEAR(c.get<double>(), total / n, 0.2 * total / n) << f.dump();
     }
     EXPECT_GT(rj["mpi"]["bytes_sent"][0].get<double>(), 0.0);
+    ASSERT_EQ(rj["mpi"]["peak_rss_bytes"].size(), size_t(n));
+    for (const json& m : rj["mpi"]["peak_rss_bytes"]) EXPECT_GT(m.get<double>(), 1e6);
     // Process 0 keeps room for its own share, not the whole world it built
     // at the start (run.json's particle memory is process 0's).
     EXPECT_LT(rj["memory"]["particle_bytes"].get<double>(),
