@@ -79,31 +79,6 @@ void sortSet(ParticleSet& set, std::vector<uint64_t>& seq) {
   seq = std::move(sorted);
 }
 
-// Keeps the particles of `set` whose flag is 0, in their order.
-void keepUnflagged(ParticleSet& set, const std::vector<uint8_t>& gone) {
-  size_t out = 0;
-  for (size_t i = 0; i < set.size(); ++i) {
-    if (gone[i]) continue;
-    if (out != i) {
-      set.x[out] = set.x[i];
-      set.v[out] = set.v[i];
-      set.C[out] = set.C[i];
-      if (set.usesF()) set.F[out] = set.F[i];
-      if (set.usesJ()) set.J[out] = set.J[i];
-      set.id[out] = set.id[i];
-      set.object[out] = set.object[i];
-    }
-    ++out;
-  }
-  set.x.resize(out);
-  set.v.resize(out);
-  set.C.resize(out);
-  if (set.usesF()) set.F.resize(out);
-  if (set.usesJ()) set.J.resize(out);
-  set.id.resize(out);
-  set.object.resize(out);
-}
-
 // Gives `set` room for `need` particles and an eighth more; `shrink`, or
 // room for over twice the need (the material moved to other processes),
 // gives the rest of its memory back. Arrays that double would hold up to
@@ -111,15 +86,7 @@ void keepUnflagged(ParticleSet& set, const std::vector<uint8_t>& gone) {
 void fitCapacity(ParticleSet& set, size_t need, bool shrink = false) {
   const size_t room = set.x.capacity();
   if (need <= room && room <= 2 * need + 4096 && !shrink) return;
-  if (shrink || room > 2 * need + 4096) {
-    set.x.shrink_to_fit();
-    set.v.shrink_to_fit();
-    set.C.shrink_to_fit();
-    set.F.shrink_to_fit();
-    set.J.shrink_to_fit();
-    set.id.shrink_to_fit();
-    set.object.shrink_to_fit();
-  }
+  if (shrink || room > 2 * need + 4096) set.shrinkToFit();
   set.reserve(need + need / 8);
 }
 
@@ -315,7 +282,7 @@ void MpiDomain::balance(std::vector<ParticleSet>& sets, bool whole) {
       gone[i] = ownerOf(keyOf(s.x[i])) != rank_;
       if (!gone[i]) seq_[k].push_back(i);
     }
-    keepUnflagged(s, gone);
+    s.removeFlagged(gone);
     fitCapacity(s, s.size(), /*shrink=*/true);  // the whole world's room, given back
     seq_[k].shrink_to_fit();
   }
@@ -365,7 +332,7 @@ void MpiDomain::migrate(std::vector<ParticleSet>& sets) {
       moving[r] += leaving[r].size();
     }
     if (any) {
-      keepUnflagged(s, gone);
+      s.removeFlagged(gone);
       size_t kept = 0;
       for (size_t i = 0; i < gone.size(); ++i)
         if (!gone[i]) seq_[k][kept++] = seq_[k][i];

@@ -522,21 +522,18 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
   }
   stats_.collisions = collisions;
   if (!domain_) return;
-  // Split over processes: the changes of every node, for gatherEverywhere.
+  // Split over processes: the changes of every node (those the read-back
+  // above gives delta_), for gatherEverywhere. shared_ is in key order.
   change_keys_.clear();
-  for (size_t k = 0; k < shared_.size(); ++k)
-    if (shared_[k].lambda > 0.0f && !shared_[k].fixed && shared_[k].solid < 0 && !combined)
-      change_keys_.push_back(shared_at_[k].first);
-  std::sort(change_keys_.begin(), change_keys_.end());
-  change_keys_.erase(std::unique(change_keys_.begin(), change_keys_.end()), change_keys_.end());
-  change_.assign(change_keys_.size() * kBlockNodes, Vec3f::Zero());
+  change_.clear();
   for (size_t k = 0; k < shared_.size(); ++k) {
     const Shared& c = shared_[k];
-    if (!(c.lambda > 0.0f && !c.fixed && c.solid < 0 && !combined)) continue;
-    const size_t b =
-        size_t(std::lower_bound(change_keys_.begin(), change_keys_.end(), shared_at_[k].first) -
-               change_keys_.begin());
-    change_[b * kBlockNodes + shared_at_[k].second] = -c.P / c.m_vol;
+    if (c.lambda <= 0.0f || c.fixed || c.solid >= 0 || combined) continue;
+    if (change_keys_.empty() || change_keys_.back() != shared_at_[k].first) {
+      change_keys_.push_back(shared_at_[k].first);
+      change_.resize(change_.size() + kBlockNodes, Vec3f::Zero());
+    }
+    change_[change_.size() - kBlockNodes + shared_at_[k].second] = -c.P / c.m_vol;
   }
 }
 
@@ -554,7 +551,6 @@ void GridCoupling::shareAcrossProcesses() {
   }
   const std::vector<Record> all = allGatherValues(*domain_, mine);
   shared_.clear();
-  mine_.clear();
   shared_at_.clear();
   for (const Record& r : all) {
     shared_at_.emplace_back(r.key, r.k);
@@ -567,7 +563,6 @@ void GridCoupling::shareAcrossProcesses() {
       if (block_slot_[gb] >= 0) c.i = uint32_t(size_t(block_slot_[gb]) * kBlockNodes + r.k);
     }
     shared_.push_back(c);
-    mine_.push_back(domain_->owns(r.key) ? 1 : 0);
   }
 }
 
@@ -611,20 +606,31 @@ void GridCoupling::gatherEverywhere(SolidPoints& pts, const TransferParams& p) c
     if (pts.kind[s] != SolidKind::Moving || change_keys_.empty()) continue;
     const int64_t first = int64_t(pts.begin[s]);
     const int64_t last = int64_t(s + 1 < pts.begin.size() ? pts.begin[s + 1] : pts.size());
-#pragma omp parallel for schedule(static) if (last - first > 4096)
-    for (int64_t q = first; q < last; ++q) {
-      const Vec3i base = baseNode(pts.x[q], p.shifted_origin, p.inv_dx);
-      const Vec3i bc(blockOf(base.x()), blockOf(base.y()), blockOf(base.z()));
+#pragma omp parallel if (last - first > 4096)
+    {
+      // Points lie in lattice order: look the eight blocks up once per run
+      // of points with one base block.
       Blocks blk;
-      for (int d = 0; d < 8; ++d) {
-        const uint64_t key = packBlock(bc + Vec3i((d >> 2) & 1, (d >> 1) & 1, d & 1));
-        const auto it = std::lower_bound(change_keys_.begin(), change_keys_.end(), key);
-        blk.slot[d] =
-            it != change_keys_.end() && *it == key ? int32_t(it - change_keys_.begin()) : kNoSlot;
+      uint64_t blk_key = UINT64_MAX;
+#pragma omp for schedule(static)
+      for (int64_t q = first; q < last; ++q) {
+        const Vec3i base = baseNode(pts.x[q], p.shifted_origin, p.inv_dx);
+        const Vec3i bc(blockOf(base.x()), blockOf(base.y()), blockOf(base.z()));
+        if (packBlock(bc) != blk_key) {
+          blk_key = packBlock(bc);
+          for (int d = 0; d < 8; ++d) {
+            const uint64_t key = packBlock(bc + Vec3i((d >> 2) & 1, (d >> 1) & 1, d & 1));
+            const auto it = std::lower_bound(change_keys_.begin(), change_keys_.end(), key);
+            blk.slot[d] = it != change_keys_.end() && *it == key
+                              ? int32_t(it - change_keys_.begin())
+                              : kNoSlot;
+          }
+        }
+        Vec3f dv = Vec3f::Zero();
+        forStencil(blk, pts.x[q], p,
+                   [&](float w, size_t i, const Vec3f&) { dv += w * change_[i]; });
+        pts.dv[q] = dv;
       }
-      Vec3f dv = Vec3f::Zero();
-      forStencil(blk, pts.x[q], p, [&](float w, size_t i, const Vec3f&) { dv += w * change_[i]; });
-      pts.dv[q] = dv;
     }
   }
 }

@@ -179,14 +179,13 @@ class GridCoupling {
 
   // Split over processes: shared_ becomes every process's owned shared
   // nodes, in process order, each mapped to this process's copy of its
-  // node where it has one (kNotHere otherwise); mine_ marks its own.
+  // node where it has one (kNotHere otherwise).
   void shareAcrossProcesses();
   // Split over processes: gather() from every shared node's change (the
   // collision every process solved alike), not only this process's nodes.
   void gatherEverywhere(SolidPoints& points, const TransferParams& p) const;
   static constexpr uint32_t kNotHere = 0xffffffffu;
   DomainExchange* domain_ = nullptr;
-  std::vector<uint8_t> mine_;
   std::vector<std::pair<uint64_t, uint32_t>> shared_at_;  // per shared node: block key, node
   std::vector<uint64_t> change_keys_;  // grid blocks with a shared node's change, sorted
   std::vector<Vec3f> change_;          // their nodes' changes, 64 per block

@@ -84,6 +84,39 @@ void ParticleSet::permute(const std::vector<uint32_t>& src, unsigned char* scrat
   permuteArray(object, src, scratch);
 }
 
+namespace {
+
+template <typename T>
+void compact(std::vector<T>& a, const std::vector<uint8_t>& gone) {
+  if (a.empty()) return;  // an attribute this material does not use
+  size_t o = 0;
+  for (size_t i = 0; i < a.size(); ++i)
+    if (!gone[i]) a[o++] = a[i];
+  a.resize(o);
+}
+
+}  // namespace
+
+void ParticleSet::removeFlagged(const std::vector<uint8_t>& gone) {
+  compact(x, gone);
+  compact(v, gone);
+  compact(C, gone);
+  compact(F, gone);
+  compact(J, gone);
+  compact(id, gone);
+  compact(object, gone);
+}
+
+void ParticleSet::shrinkToFit() {
+  x.shrink_to_fit();
+  v.shrink_to_fit();
+  C.shrink_to_fit();
+  F.shrink_to_fit();
+  J.shrink_to_fit();
+  id.shrink_to_fit();
+  object.shrink_to_fit();
+}
+
 size_t ParticleSet::bytes() const {
   return capacityBytes(x) + capacityBytes(v) + capacityBytes(C) + capacityBytes(F) +
          capacityBytes(J) + capacityBytes(id) + capacityBytes(object);

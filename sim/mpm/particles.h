@@ -39,6 +39,11 @@ struct ParticleSet {
   // `scratch`, which holds at least kPermuteScratch bytes per particle.
   static constexpr size_t kPermuteScratch = 12;
   void permute(const std::vector<uint32_t>& src, unsigned char* scratch);
+  // Removes the particles whose flag in `gone` is set; the others keep
+  // their order.
+  void removeFlagged(const std::vector<uint8_t>& gone);
+  // Gives back the attribute arrays' unused capacity.
+  void shrinkToFit();
   // Bytes held by the attribute arrays (capacity, not size).
   size_t bytes() const;
 };

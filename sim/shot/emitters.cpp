@@ -26,17 +26,6 @@ Vec3d asWritten(const Placement& pl, const Pose& pose, const Mat3d& R, const Vec
   return pl.pivot + R.transpose() * (x - pl.pivot - pose.translate);
 }
 
-template <class T>
-void compact(std::vector<T>& a, const std::vector<uint8_t>& gone) {
-  if (a.empty()) return;
-  size_t o = 0;
-  for (size_t i = 0; i < a.size(); ++i)
-    if (!gone[i]) a[o++] = a[i];
-  a.resize(o);
-  // Give the memory back once most of it is unused.
-  if (a.capacity() > 2 * a.size() + 256) a.shrink_to_fit();
-}
-
 }  // namespace
 
 bool Sink::contains(const Vec3d& p, const Pose& pose, const Mat3d& R) const {
@@ -252,13 +241,9 @@ size_t removeInSinks(std::vector<Sink>& sinks, std::vector<ParticleSet>& sets, d
         ++n;
       }
     if (n == 0) continue;
-    compact(set.x, gone);
-    compact(set.v, gone);
-    compact(set.C, gone);
-    compact(set.F, gone);
-    compact(set.J, gone);
-    compact(set.id, gone);
-    compact(set.object, gone);
+    set.removeFlagged(gone);
+    // Give the memory back once most of it is unused.
+    if (set.x.capacity() > 2 * set.size() + 256) set.shrinkToFit();
     removed += n;
   }
   return removed;
