@@ -62,6 +62,51 @@ void updateDeformation(ParticleSet& set, size_t i, float dt, const Mat3f& C) {
   }
 }
 
+// The velocity v = sum w_i v_i at a particle and its affine part
+// B = sum w_i v_i (o_i - fx)^T over the 27 nodes of its stencil (o_i the
+// node's offset from the base node). The weights are products of one
+// weight per axis, so the sums contract one axis at a time (z, then y,
+// then x), each node's four channels (m, v) one vector: a third of the
+// multiplications of the sum node by node, and no shuffling of 3-vectors.
+// fv receives sum w_i f_i of a second buffer (FLIP's change) with kFlip.
+template <bool kFlip>
+[[gnu::always_inline]] inline void gatherAffine(const HaloBuffer<4>& buf, const HaloBuffer<4>* fbuf,
+                                                const Vec3i& h, const Stencil& st, Vec3f& v,
+                                                Mat3f& B, Vec3f& fv) {
+  using V4 = Eigen::Vector4f;
+  using Node = Eigen::Map<const V4, Eigen::Aligned16>;
+  V4 U[3], Y[3], Z[3], F[3];
+  for (int a = 0; a < 3; ++a) {
+    U[a] = Y[a] = Z[a] = F[a] = V4::Zero();
+    for (int b = 0; b < 3; ++b) {
+      // The three nodes along z lie next to each other in the buffer.
+      const int row = HaloBuffer<4>::index(h.x() + a, h.y() + b, h.z());
+      const Node n0(buf.d[row]), n1(buf.d[row + 1]), n2(buf.d[row + 2]);
+      const V4 S = st.w[2][0] * n0 + st.w[2][1] * n1 + st.w[2][2] * n2;
+      const V4 T = st.w[2][1] * n1 + (2.0f * st.w[2][2]) * n2;
+      const float wb = st.w[1][b];
+      U[a] += wb * S;
+      Y[a] += (wb * (float(b) - st.fx[1])) * S;
+      Z[a] += wb * (T - st.fx[2] * S);
+      if constexpr (kFlip) {
+        const Node f0(fbuf->d[row]), f1(fbuf->d[row + 1]), f2(fbuf->d[row + 2]);
+        F[a] += wb * (st.w[2][0] * f0 + st.w[2][1] * f1 + st.w[2][2] * f2);
+      }
+    }
+  }
+  const float* w = st.w[0];
+  const V4 sv = w[0] * U[0] + w[1] * U[1] + w[2] * U[2];
+  const V4 bx = (w[0] * -st.fx[0]) * U[0] + (w[1] * (1.0f - st.fx[0])) * U[1] +
+                (w[2] * (2.0f - st.fx[0])) * U[2];
+  const V4 by = w[0] * Y[0] + w[1] * Y[1] + w[2] * Y[2];
+  const V4 bz = w[0] * Z[0] + w[1] * Z[1] + w[2] * Z[2];
+  v = sv.tail<3>();
+  B.col(0) = bx.tail<3>();
+  B.col(1) = by.tail<3>();
+  B.col(2) = bz.tail<3>();
+  if constexpr (kFlip) fv = (w[0] * F[0] + w[1] * F[1] + w[2] * F[2]).tail<3>();
+}
+
 template <bool kFlip>
 void scatterSet(const ParticleSet& set, const std::vector<uint32_t>& off, size_t pb,
                 const TransferParams& p, const GridLayout& layout, HaloBuffer<4>& buf,
@@ -72,21 +117,22 @@ void scatterSet(const ParticleSet& set, const std::vector<uint32_t>& off, size_t
     const Vec3i h = haloOffset(s, layout, pb);
     const Mat3f& A = set.C[i];  // affine momentum times dx (computeAffine)
     const Vec3f fx(s.fx[0], s.fx[1], s.fx[2]);
-    // Node momentum is w (m v + A (o - fx)) for stencil offset o.
+    // Node momentum is w (m v + A (o - fx)) for stencil offset o; mass and
+    // momentum go as one vector of four channels, as the buffer holds them.
+    using V4 = Eigen::Vector4f;
     const Vec3f mv0 = m * set.v[i] - A * fx;
+    const V4 p0(m, mv0.x(), mv0.y(), mv0.z());
+    const V4 da(0.0f, A(0, 0), A(1, 0), A(2, 0)), db(0.0f, A(0, 1), A(1, 1), A(2, 1)),
+        dc(0.0f, A(0, 2), A(1, 2), A(2, 2));
     for (int a = 0; a < 3; ++a) {
-      const Vec3f ma = mv0 + float(a) * A.col(0);
+      const V4 pa = p0 + float(a) * da;
       for (int b = 0; b < 3; ++b) {
-        const Vec3f mab = ma + float(b) * A.col(1);
+        const V4 pab = pa + float(b) * db;
         const float wab = s.w[0][a] * s.w[1][b];
         float* row = buf.d[HaloBuffer<4>::index(h.x() + a, h.y() + b, h.z())];
         for (int c = 0; c < 3; ++c) {
           const float w = wab * s.w[2][c];
-          const Vec3f mom = mab + float(c) * A.col(2);
-          row[c * 4 + 0] += w * m;
-          row[c * 4 + 1] += w * mom.x();
-          row[c * 4 + 2] += w * mom.y();
-          row[c * 4 + 3] += w * mom.z();
+          Eigen::Map<V4, Eigen::Aligned16>(row + 4 * c) += w * (pab + float(c) * dc);
           if constexpr (kFlip) {
             float* frow = fbuf->d[HaloBuffer<4>::index(h.x() + a, h.y() + b, h.z() + c)];
             frow[1] += w * m * set.v[i].x();
@@ -203,20 +249,9 @@ G2PStats gatherSet(ParticleSet& set, size_t s, const GridLayout& layout,
       for (uint32_t i = off[pb]; i < off[pb + 1]; ++i) {
         const Stencil st = stencilAt(set.x[i], p.shifted_origin, p.inv_dx);
         const Vec3i h = haloOffset(st, layout, pb);
-        Vec3f v = Vec3f::Zero();
-        Vec3f dv = Vec3f::Zero();
-        Mat3f B = Mat3f::Zero();
-        for (int a = 0; a < 3; ++a)
-          for (int b = 0; b < 3; ++b)
-            for (int c = 0; c < 3; ++c) {
-              const float w = st.w[0][a] * st.w[1][b] * st.w[2][c];
-              const int hi = HaloBuffer<4>::index(h.x() + a, h.y() + b, h.z() + c);
-              const Vec3f vi(buf.d[hi][1], buf.d[hi][2], buf.d[hi][3]);
-              const Vec3f o(float(a) - st.fx[0], float(b) - st.fx[1], float(c) - st.fx[2]);
-              v += w * vi;
-              B += (w * vi) * o.transpose();
-              if constexpr (kFlip) dv += w * Vec3f(fbuf.d[hi][1], fbuf.d[hi][2], fbuf.d[hi][3]);
-            }
+        Vec3f v, dv;
+        Mat3f B;
+        gatherAffine<kFlip>(buf, &fbuf, h, st, v, B, dv);
         if constexpr (M::kUsesF) {
           // Everything read again below comes from registers, not from the
           // particle just stored: a wide load of C or x waited on its
