@@ -66,8 +66,9 @@ void updateDeformation(ParticleSet& set, size_t i, float dt, const Mat3f& C) {
 // B = sum w_i v_i (o_i - fx)^T over the 27 nodes of its stencil (o_i the
 // node's offset from the base node). The weights are products of one
 // weight per axis, so the sums contract one axis at a time (z, then y,
-// then x), each node's four channels (m, v) one vector: a third of the
-// multiplications of the sum node by node, and no shuffling of 3-vectors.
+// then x), each node's four channels (m, v) one vector: two thirds of the
+// multiplications of the sum node by node, each on a whole vector instead
+// of shuffled 3-vectors.
 // fv receives sum w_i f_i of a second buffer (FLIP's change) with kFlip.
 template <bool kFlip>
 [[gnu::always_inline]] inline void gatherAffine(const HaloBuffer<4>& buf, const HaloBuffer<4>* fbuf,

@@ -31,9 +31,10 @@ struct Box {
 // A solid's voxels binned by the bounding boxes of their deformed corners on
 // a uniform grid of its own spacing: a point's candidate tetrahedra are the
 // six of each voxel of its bin whose box holds it. Binning the voxels, not
-// their tetrahedra, builds the bins six times faster (rebuilt most steps:
-// the solid moves); the candidates come in tetrahedron index order, the
-// voxels' boxes holding every tetrahedron that holds the point.
+// their tetrahedra, makes a sixth of the boxes and bin entries (the bins
+// are rebuilt most steps: the solid moves); the candidates come in
+// tetrahedron index order, the voxels' boxes holding every tetrahedron
+// that holds the point.
 class TetBins {
  public:
   // The voxels of the whole bounding box of y, per cell, in one array
