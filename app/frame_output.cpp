@@ -7,7 +7,6 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
-#include <regex>
 #include <sstream>
 
 #include "app/run_scene.h"
@@ -17,6 +16,7 @@
 #include "export/vdb_writer.h"
 #include "export/vtk_writer.h"
 #include "sim/errors.h"
+#include "sim/frame_name.h"
 
 namespace triad {
 
@@ -31,16 +31,9 @@ std::string frameName(const std::string& dir, const char* stem, int frame, const
 }
 
 // Body meshes are NAME.FFFF.ply; names may hold dots, the frame is the last
-// number (groups: name, frame).
-const std::regex& bodyFilePattern() {
-  static const std::regex body_file(R"((.+)\.(\d{4,9})\.ply)");
-  return body_file;
-}
-
-// VTK frame files are NAME.FFFF.vtp (groups: name, frame).
-const std::regex& vtkFilePattern() {
-  static const std::regex vtk_file(R"((.+)\.(\d{4,9})\.vtp)");
-  return vtk_file;
+// number.
+bool isBodyFile(const std::string& name, FrameName& n) {
+  return parseFrameName(name, n) && n.ext == "ply";
 }
 
 // The header of a PLY file we wrote: its size and element counts.
@@ -322,7 +315,6 @@ void writeFrameCheckpoint(const std::string& out_dir, int frame, const std::stri
 }
 
 void removeStaleTemporaries(const std::string& out_dir) {
-  static const std::regex tmp(R"(.+\.tmp\d+)");
   for (const std::string& dir : {out_dir, out_dir + "/particles", out_dir + "/volumes",
                                  out_dir + "/preview", bodiesDir(out_dir), surfacesDir(out_dir),
                                  vtkDir(out_dir), vtkDir(out_dir) + "/bodies",
@@ -330,7 +322,7 @@ void removeStaleTemporaries(const std::string& out_dir) {
     std::error_code ec;
     for (const auto& e : fs::directory_iterator(dir, ec)) {
       std::error_code ignored;
-      if (e.is_regular_file(ignored) && std::regex_match(e.path().filename().string(), tmp))
+      if (e.is_regular_file(ignored) && isTemporaryName(e.path().filename().string()))
         fs::remove(e.path(), ignored);
     }
   }
@@ -344,22 +336,26 @@ void removeCheckpoints(const std::string& out_dir) {
 }
 
 void removeFramesAfter(const std::string& out_dir, int last_frame) {
-  static const std::regex frame_file(R"((particles|density|preview)\.(\d{4,})\.(ply|vdb|png))");
-  const std::pair<std::string, const std::regex*> dirs[] = {
-      {out_dir + "/particles", &frame_file},
-      {out_dir + "/volumes", &frame_file},
-      {out_dir + "/preview", &frame_file},
-      {bodiesDir(out_dir), &bodyFilePattern()},
-      {surfacesDir(out_dir), &bodyFilePattern()},
-      {vtkDir(out_dir), &vtkFilePattern()},
-      {vtkDir(out_dir) + "/bodies", &vtkFilePattern()},
-      {vtkDir(out_dir) + "/surfaces", &vtkFilePattern()}};
-  for (const auto& [dir, pattern] : dirs) {
+  // The frame files of each folder: particles, density and previews by
+  // their stems, body and surface meshes (NAME.FFFF.ply) and VTK files
+  // (NAME.FFFF.vtp) by their extension.
+  auto frameFile = [](const FrameName& n) {
+    return (n.stem == "particles" || n.stem == "density" || n.stem == "preview") &&
+           (n.ext == "ply" || n.ext == "vdb" || n.ext == "png");
+  };
+  auto meshFile = [](const FrameName& n) { return n.ext == "ply"; };
+  auto vtkFile = [](const FrameName& n) { return n.ext == "vtp"; };
+  const std::pair<std::string, bool (*)(const FrameName&)> dirs[] = {
+      {out_dir + "/particles", frameFile},    {out_dir + "/volumes", frameFile},
+      {out_dir + "/preview", frameFile},      {bodiesDir(out_dir), meshFile},
+      {surfacesDir(out_dir), meshFile},       {vtkDir(out_dir), vtkFile},
+      {vtkDir(out_dir) + "/bodies", vtkFile}, {vtkDir(out_dir) + "/surfaces", vtkFile}};
+  for (const auto& [dir, ours] : dirs) {
     std::error_code ec;
     for (const auto& e : fs::directory_iterator(dir, ec)) {
-      std::smatch m;
-      const std::string name = e.path().filename().string();
-      if (!std::regex_match(name, m, *pattern) || std::stoi(m[2].str()) <= last_frame) continue;
+      FrameName n;
+      if (!parseFrameName(e.path().filename().string(), n) || !ours(n) || n.frame <= last_frame)
+        continue;
       std::error_code ignored;
       fs::remove(e.path(), ignored);
     }
@@ -374,13 +370,12 @@ void removeOtherBodies(const std::string& out_dir, const World& world) {
     fs::remove(bodyForcesPath(out_dir), ignored);
   }
   for (const auto& e : fs::directory_iterator(dir, ec)) {
-    std::smatch m;
-    const std::string name = e.path().filename().string();
-    if (!std::regex_match(name, m, bodyFilePattern())) continue;
+    FrameName n;
+    if (!isBodyFile(e.path().filename().string(), n)) continue;
     const bool ours = std::any_of(world.bodies.begin(), world.bodies.end(),
-                                  [&](const RigidBody& b) { return b.name == m[1].str(); }) ||
+                                  [&](const RigidBody& b) { return b.name == n.stem; }) ||
                       std::any_of(world.elastics.begin(), world.elastics.end(),
-                                  [&](const ElasticSolid& b) { return b.name == m[1].str(); });
+                                  [&](const ElasticSolid& b) { return b.name == n.stem; });
     if (!ours) fs::remove(e.path(), ignored);
   }
   // Surface meshes of materials this run does not mesh.
@@ -388,10 +383,9 @@ void removeOtherBodies(const std::string& out_dir, const World& world) {
   if (world.scene.output.surface_mesh)
     for (int k : surfaceMaterials(world.scene)) meshed.push_back(world.scene.materials[size_t(k)].name);
   for (const auto& e : fs::directory_iterator(surfacesDir(out_dir), ec)) {
-    std::smatch m;
-    const std::string name = e.path().filename().string();
-    if (!std::regex_match(name, m, bodyFilePattern())) continue;
-    if (std::find(meshed.begin(), meshed.end(), m[1].str()) == meshed.end())
+    FrameName n;
+    if (!isBodyFile(e.path().filename().string(), n)) continue;
+    if (std::find(meshed.begin(), meshed.end(), n.stem) == meshed.end())
       fs::remove(e.path(), ignored);
   }
 }

@@ -5,9 +5,9 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
-#include <regex>
 
 #include "export/atomic_file.h"
+#include "sim/frame_name.h"
 
 namespace triad {
 
@@ -437,12 +437,11 @@ void restoreCheckpoint(Checkpoint&& c, World& world, Solver& solver) {
 std::vector<std::pair<int, std::string>> listCheckpoints(const std::string& dir) {
   std::vector<std::pair<int, std::string>> found;
   std::error_code ec;
-  static const std::regex name(R"(state\.(\d{4,6})\.bin)");
   for (const auto& e : fs::directory_iterator(dir, ec)) {
-    std::smatch m;
-    const std::string file = e.path().filename().string();
-    if (e.is_regular_file(ec) && std::regex_match(file, m, name))
-      found.emplace_back(std::stoi(m[1].str()), e.path().string());
+    FrameName n;
+    if (e.is_regular_file(ec) && parseFrameName(e.path().filename().string(), n, 4, 6) &&
+        n.stem == "state" && n.ext == "bin")
+      found.emplace_back(n.frame, e.path().string());
   }
   std::sort(found.begin(), found.end(), std::greater<>());
   return found;

@@ -7,11 +7,11 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
-#include <regex>
 #include <sstream>
 #include <stdexcept>
 
 #include "sim/errors.h"
+#include "sim/frame_name.h"
 
 namespace triad::render {
 
@@ -139,12 +139,11 @@ std::string previewImagePath(const std::string& out_dir, int frame) {
 std::map<int, std::string> listFrameFiles(const std::string& dir, const std::string& stem,
                                           const std::string& ext) {
   std::map<int, std::string> out;
-  const std::regex pattern(stem + R"(\.(\d{4,9})\.)" + ext);
   std::error_code ec;
   for (const auto& e : fs::directory_iterator(dir, ec)) {
-    std::smatch m;
-    const std::string name = e.path().filename().string();
-    if (std::regex_match(name, m, pattern)) out[std::stoi(m[1].str())] = e.path().string();
+    FrameName n;
+    if (parseFrameName(e.path().filename().string(), n) && n.stem == stem && n.ext == ext)
+      out[n.frame] = e.path().string();
   }
   return out;
 }

@@ -15,6 +15,7 @@
 #include "render/preview_writer.h"
 #include "scene_fixture.h"
 #include "sim/errors.h"
+#include "sim/frame_name.h"
 
 // Mesa's OSMesa/llvmpipe keeps a few small allocations past exit (its shader
 // compiler and screen): not ours, so LeakSanitizer (sanitizer build) ignores them.
@@ -317,6 +318,35 @@ TEST(PreviewLegend, WhatIsDrawnInItsColour) {
   for (int c = 0; c < 3; ++c) EXPECT_EQ(swatch[c], std::lround(surface.legend[0].color[size_t(c)] * 255.0f)) << c;
   EXPECT_LT(img.at(20, 1)[0], 128);  // the panel (31 pixels wide here) darkens what is under it
   EXPECT_EQ(img.at(199, 99)[0], 128);  // and nothing beyond it
+}
+
+// Frame file names as the cache's listing, resume and tidying read them:
+// the stem may hold dots, the frame is the number before the extension.
+TEST(FrameName, SplitsStemFrameAndExtension) {
+  FrameName n;
+  ASSERT_TRUE(parseFrameName("particles.0042.ply", n));
+  EXPECT_EQ(n.stem, "particles");
+  EXPECT_EQ(n.frame, 42);
+  EXPECT_EQ(n.ext, "ply");
+  ASSERT_TRUE(parseFrameName("my.crate.v2.123456789.ply", n));
+  EXPECT_EQ(n.stem, "my.crate.v2");
+  EXPECT_EQ(n.frame, 123456789);
+  ASSERT_TRUE(parseFrameName("a.0001.0002.vtp", n));
+  EXPECT_EQ(n.stem, "a.0001");
+  EXPECT_EQ(n.frame, 2);
+  // Too few or too many digits (ten would overflow an int), no stem, no
+  // digits, not digits.
+  for (const char* bad :
+       {"particles.042.ply", "particles.1234567890.ply", ".0001.ply", "particles..ply",
+        "particles.00a1.ply", "particles.0001", "0001.ply", "particles.0001.ply.tmp123", ""})
+    EXPECT_FALSE(parseFrameName(bad, n)) << bad;
+  // A narrower range (checkpoints: 4-6 digits).
+  EXPECT_TRUE(parseFrameName("state.123456.bin", n, 4, 6));
+  EXPECT_FALSE(parseFrameName("state.1234567.bin", n, 4, 6));
+  EXPECT_TRUE(isTemporaryName("particles.0001.ply.tmp12345"));
+  EXPECT_TRUE(isTemporaryName("run.json.tmp7"));
+  for (const char* bad : {"particles.0001.ply", ".tmp12", "a.tmp", "a.tmp12x", "a.tmpl2"})
+    EXPECT_FALSE(isTemporaryName(bad)) << bad;
 }
 
 TEST(PreviewSettingsIo, RoundTripAndSceneDefaults) {
