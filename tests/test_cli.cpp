@@ -181,6 +181,14 @@ TEST(Cli, RerunRemovesFramesBeyondTheNewCount) {
   for (const char* stale : {"particles/particles.0002.ply", "particles/particles.0003.ply",
                             "volumes/density.0002.vdb", "volumes/density.0003.vdb"})
     EXPECT_FALSE(fs::exists(dir / "cache" / stale)) << stale;
+  // A file of the user's with a frame number no run writes (more than nine
+  // digits) is left alone, and does not stop the run (it once made the
+  // tidying's number conversion throw: "triad: error: stoi", exit 1).
+  const fs::path stray = dir / "cache/particles/particles.12345678901.ply";
+  std::ofstream(stray) << "not ours";
+  ASSERT_EQ(triad(dir, "run " + test::writeScene(dir, j) + " --quiet --out " + out).status, 0);
+  EXPECT_TRUE(fs::exists(stray));
+  EXPECT_TRUE(fs::exists(dir / "cache/particles/particles.0001.ply"));
 }
 
 TEST(Cli, TypoInSceneExitsTwoNamingTheKey) {
