@@ -265,7 +265,6 @@ void MpiDomain::balance(std::vector<ParticleSet>& sets, bool whole) {
   }
   cut_ = cut;
   comm_seconds_ += MPI_Wtime() - t0;
-  cut_comm_ = comm_seconds_;
   if (!whole) {
     migrate(sets);
     balance_seconds_ += MPI_Wtime() - t0;
