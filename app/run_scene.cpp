@@ -288,10 +288,15 @@ int runScene(const RunOptions& options_in) {
   double output_seconds = 0.0;
   auto record = [&](const SimState& sim, bool finished, const std::string& error) {
     const PhaseTimes& t = sim.times;
-    rec.phase_seconds = {{"bin", t.bin},   {"stress", t.stress}, {"p2g", t.p2g},
-                         {"grid", t.grid}, {"g2p", t.g2p},       {"solids", t.solids},
-                         {"shot", t.shot},   {"solve", t.total()},
-                         {"output", output_seconds}, {"writing", output.busySeconds()}};
+    rec.phase_seconds = {{"bin", t.bin},
+                         {"p2g", t.p2g},
+                         {"grid", t.grid},
+                         {"g2p", t.g2p},
+                         {"solids", t.solids},
+                         {"shot", t.shot},
+                         {"solve", t.total()},
+                         {"output", output_seconds},
+                         {"writing", output.busySeconds()}};
     rec.particles = sim.particles;
     rec.emitted = sim.emitted;
     rec.removed = sim.removed;

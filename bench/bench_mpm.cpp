@@ -58,11 +58,10 @@ int main(int argc, char** argv) {
   std::printf(
       "scene=%s particles=%zu threads=%d steps=%lld sim_time=%.3f wall=%.2f "
       "particle_substeps_per_s=%.3e peak_rss_mib=%.1f bytes_per_particle_rss=%.0f "
-      "bytes_per_particle_held=%.0f phases[bin=%.2f stress=%.2f p2g=%.2f grid=%.2f g2p=%.2f solids=%.2f]\n",
-      scene.name.c_str(), n, omp_get_max_threads(),
-      static_cast<long long>(solver.record().steps), sim_time, wall, rate,
-      double(peak) / (1024.0 * 1024.0), double(peak - rss_before) / double(n),
-      double(world.particleBytes() + solver.bytes()) / double(n), t.bin, t.stress, t.p2g,
-      t.grid, t.g2p, t.solids);
+      "bytes_per_particle_held=%.0f phases[bin=%.2f p2g=%.2f grid=%.2f g2p=%.2f solids=%.2f]\n",
+      scene.name.c_str(), n, omp_get_max_threads(), static_cast<long long>(solver.record().steps),
+      sim_time, wall, rate, double(peak) / (1024.0 * 1024.0), double(peak - rss_before) / double(n),
+      double(world.particleBytes() + solver.bytes()) / double(n), t.bin, t.p2g, t.grid, t.g2p,
+      t.solids);
   return 0;
 }

@@ -127,8 +127,7 @@ void Solver::step(double dt) {
     binParticles();
     if (sleep_) classifySleep();    // settled blocks skip the rest
     if (domain_) domain_->extendLayout(layout_);  // blocks others scatter into
-    computeStress(fdt);
-    particlesToGrid();              // contract step 2
+    particlesToGrid(fdt);                         // contract step 2, the stress folded in
     if (domain_) {                  // partial sums to their owners
       domain_->sumGhosts(layout_, grid_, layers_);
       if (flip_) domain_->sumGhosts(layout_, flip_grid_, flip_layers_);
@@ -285,16 +284,12 @@ void Solver::classifySleep() {
   stillSleepingParticles(layout_, world_.sets);
 }
 
-void Solver::computeStress(float dt) {
-  PhaseTimer timer(times_.stress);
-  params_.dt = dt;
-  max_stiffness_scale_ = computeAffine(world_.sets, params_, &layout_);
-}
-
-void Solver::particlesToGrid() {
+void Solver::particlesToGrid(float dt) {
   PhaseTimer timer(times_.p2g);
-  triad::particlesToGrid(world_.sets, layout_, params_, grid_, flip_ ? &flip_grid_ : nullptr,
-                         domain_ ? &layers_ : nullptr, domain_ && flip_ ? &flip_layers_ : nullptr);
+  params_.dt = dt;
+  max_stiffness_scale_ = triad::particlesToGrid(
+      world_.sets, layout_, params_, grid_, flip_ ? &flip_grid_ : nullptr,
+      domain_ ? &layers_ : nullptr, domain_ && flip_ ? &flip_layers_ : nullptr);
 }
 
 void Solver::updateGrid(float dt) {

@@ -18,10 +18,10 @@ namespace triad {
 
 // Wall-clock seconds spent in each phase of the step.
 struct PhaseTimes {
-  double bin = 0, stress = 0, p2g = 0, grid = 0, g2p = 0;
+  double bin = 0, p2g = 0, grid = 0, g2p = 0;  // p2g includes the stress
   double solids = 0;  // coupling transfers, contacts and rigid integration
   double shot = 0;    // sources' emission and sinks' removal
-  double total() const { return bin + stress + p2g + grid + g2p + solids + shot; }
+  double total() const { return bin + p2g + grid + g2p + solids + shot; }
 };
 
 // What MPM material and elastic solids did to one rigid body since the
@@ -114,8 +114,7 @@ class Solver {
   double wakeMargin() const;  // beyond a moving solid's bounds, metres
   WakeBox wakeBox(const RigidBody& b) const;
   WakeBox elasticBox(const ElasticSolid& e) const;
-  void computeStress(float dt);
-  void particlesToGrid();
+  void particlesToGrid(float dt);
   void updateGrid(float dt);
   void gridToParticles(float dt);
   void emitSources();

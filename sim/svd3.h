@@ -370,19 +370,42 @@ void svdEigen(const Mat3<T>& F, Mat3<T>& U, Vec3<T>& sigma, Mat3<T>& V) {
 #pragma GCC diagnostic pop
 #endif
 
-// Up to kLanes matrices through the kernel. Eigen stores column-major:
-// entry (i, j) of matrix l sits at F[l].data()[3 j + i].
-template <bool kWantSvd>
-inline void batchPass(int count, const Mat3f* F, Mat3f* U, Vec3f* sigma, Mat3f* V, Mat3f* R) {
-  // Transpose to one entry per vector; pad a short tail with identities
+// Up to kLanes matrices into lanes, entry (i, j) in f[3 i + j]. Eigen
+// stores column-major: entry (i, j) of matrix l sits at F[l].data()[3 j + i].
+// A short tail is padded with identities.
+inline void loadLanes(int count, const Mat3f* F, Pack (&f)[9]) {
   alignas(64) float in[9][kLanes];
   for (int l = 0; l < kLanes; ++l) {
     const float* a = l < count ? F[l].data() : nullptr;
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j) in[3 * i + j][l] = a ? a[3 * j + i] : float(i == j);
   }
-  Pack f[9], u[9], s[3], v[9];
   std::memcpy(f, in, sizeof(f));
+}
+
+// The first count lanes of r back into matrices.
+inline void storeLanes(int count, const Pack (&r)[9], Mat3f* R) {
+  alignas(64) float out[9][kLanes];
+  std::memcpy(out, r, sizeof(r));
+  for (int l = 0; l < count; ++l) {
+    float* pr = R[l].data();
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) pr[3 * j + i] = out[3 * i + j][l];
+  }
+}
+
+// R = U V^T in the lanes.
+TRIAD_SVD3_INLINE void rotationOf(const Pack (&u)[9], const Pack (&v)[9], Pack (&r)[9]) {
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      r[3 * i + j] =
+          u[3 * i] * v[3 * j] + u[3 * i + 1] * v[3 * j + 1] + u[3 * i + 2] * v[3 * j + 2];
+}
+
+template <bool kWantSvd>
+inline void batchPass(int count, const Mat3f* F, Mat3f* U, Vec3f* sigma, Mat3f* V, Mat3f* R) {
+  Pack f[9], u[9], s[3], v[9];
+  loadLanes(count, F, f);
   svdKernel(f, u, s, v);
   if constexpr (kWantSvd) {
     alignas(64) float ou[9][kLanes], os[3][kLanes], ov[9][kLanes];
@@ -401,17 +424,8 @@ inline void batchPass(int count, const Mat3f* F, Mat3f* U, Vec3f* sigma, Mat3f* 
   } else {
     // R = U V^T in the lanes: nine results to scatter instead of 21
     Pack r[9];
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j)
-        r[3 * i + j] =
-            u[3 * i] * v[3 * j] + u[3 * i + 1] * v[3 * j + 1] + u[3 * i + 2] * v[3 * j + 2];
-    alignas(64) float orr[9][kLanes];
-    std::memcpy(orr, r, sizeof(r));
-    for (int l = 0; l < count; ++l) {
-      float* pr = R[l].data();
-      for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j) pr[3 * j + i] = orr[3 * i + j][l];
-    }
+    rotationOf(u, v, r);
+    storeLanes(count, r, R);
   }
 }
 
@@ -560,6 +574,24 @@ inline void polarRotationBatch(int n, const Mat3f* F, Mat3f* R) {
   for (int b = 0; b < n; b += kLanes) {
     svd3_detail::batchPass<false>(n - b < kLanes ? n - b : kLanes, F + b, nullptr, nullptr, nullptr,
                                   R + b);
+  }
+}
+
+// polarRotationBatch with the lanes handed on: for each pass over up to
+// kLanes matrices from F[b], fn(b, count, f, r) receives F and R = U V^T as
+// nine lane vectors each (entry (i, j) at [3 i + j]), so that a caller's
+// formula in F and R runs across the lanes too instead of on one matrix at a
+// time (svd3_detail::storeLanes writes results back).
+template <class Fn>
+inline void polarRotationLanes(int n, const Mat3f* F, Fn&& fn) {
+  using namespace svd3_detail;
+  for (int b = 0; b < n; b += kLanes) {
+    const int count = n - b < kLanes ? n - b : kLanes;
+    Pack f[9], u[9], s[3], v[9], r[9];
+    loadLanes(count, F + b, f);
+    svdKernel(f, u, s, v);
+    rotationOf(u, v, r);
+    fn(b, count, f, r);
   }
 }
 

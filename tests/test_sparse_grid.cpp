@@ -117,7 +117,6 @@ TEST(SparseGrid, AddedGridBlocksKeepNeighboursPointingAtTheirBlocks) {
     for (int d = 0; d < 8; ++d) ASSERT_EQ(L.grid_keys[L.neighbours[pb][d]], named[pb][size_t(d)]);
   // The scatter puts all mass on the particles' own blocks, none on the new ones.
   std::vector<GridNode> grid;
-  computeAffine(s.sets, s.p);
   particlesToGrid(s.sets, L, s.p, grid, nullptr);
   ASSERT_EQ(grid.size(), L.gridBlocks() * size_t(kBlockNodes));
   double total = 0.0, on_new = 0.0;
@@ -180,10 +179,8 @@ TEST(SparseGrid, MemoryFollowsParticlesNotDomain) {
   EXPECT_LE(blocks, 8 * s.layout.particleBlocks()) << "grid blocks beyond the particles' stencils";
 }
 
-// The grid of one P2G (after the stress pass, which folds the stress into
-// the affine momentum, MLS-MPM).
+// The grid of one P2G (the stress folded into the affine momentum, MLS-MPM).
 std::vector<GridNode> scatter(GridFixture& s) {
-  computeAffine(s.sets, s.p);
   std::vector<GridNode> grid;
   particlesToGrid(s.sets, s.layout, s.p, grid, nullptr);
   return grid;
@@ -247,7 +244,6 @@ TEST(SparseGrid, ScatterIsIdenticalForAnyThreadCount) {
   for (int threads : {1, 2, 3}) {
     omp_set_num_threads(threads);
     GridFixture s = makeSetup();
-    computeAffine(s.sets, s.p);
     std::vector<GridNode> grid;
     particlesToGrid(s.sets, s.layout, s.p, grid, nullptr);
     grids.push_back(grid);

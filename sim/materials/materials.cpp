@@ -85,18 +85,32 @@ constexpr int kChunk = 64;
 }  // namespace
 
 void kirchhoffBatch(const FixedCorotated<float>& m, int n, const Mat3f* F, Mat3f* tau) {
-  Mat3f R[kChunk];
-  for (int b = 0; b < n; b += kChunk) {
-    const int count = std::min(kChunk, n - b);
-    polarRotationBatch(count, F + b, R);
-    for (int i = 0; i < count; ++i) {
-      const Mat3f& A = F[b + i];
-      const float J = A.determinant();
-      Mat3f t = 2.0f * m.mu * (A - R[i]) * A.transpose();
-      t.diagonal().array() += m.lambda * (J - 1.0f) * J;
-      tau[b + i] = t;
-    }
-  }
+  // tau = 2 mu (F - R) F^T + lambda (J - 1) J I across the vector lanes, as
+  // the rotation comes out of the decomposition: one matrix at a time it
+  // cost half as much as the decomposition itself. tau is symmetric
+  // (R F^T = R S R^T), so six entries are computed.
+  using svd3_detail::Pack;
+  const Pack two_mu = svd3_detail::splat<Pack>(2.0f * m.mu);
+  const Pack lambda = svd3_detail::splat<Pack>(m.lambda);
+  const Pack one = svd3_detail::splat<Pack>(1.0f);
+  polarRotationLanes(n, F, [&](int b, int count, const Pack(&f)[9], const Pack(&r)[9]) {
+    const Pack J = f[0] * (f[4] * f[8] - f[5] * f[7]) - f[1] * (f[3] * f[8] - f[5] * f[6]) +
+                   f[2] * (f[3] * f[7] - f[4] * f[6]);
+    Pack d[9];
+    for (int k = 0; k < 9; ++k) d[k] = f[k] - r[k];
+    Pack t[9];
+    for (int i = 0; i < 3; ++i)
+      for (int j = i; j < 3; ++j) {
+        t[3 * i + j] = two_mu * (d[3 * i] * f[3 * j] + d[3 * i + 1] * f[3 * j + 1] +
+                                 d[3 * i + 2] * f[3 * j + 2]);
+        t[3 * j + i] = t[3 * i + j];
+      }
+    const Pack p = lambda * (J - one) * J;
+    t[0] += p;
+    t[4] += p;
+    t[8] += p;
+    svd3_detail::storeLanes(count, t, tau + b);
+  });
 }
 
 void projectAndKirchhoffBatch(const Snow<float>& m, int n, Mat3f* Fe, float* Jp, Mat3f* tau) {

@@ -17,10 +17,14 @@ struct HaloBuffer {
   static int index(int x, int y, int z) { return (x * kHalo + y) * kHalo + z; }
 };
 
-// Position of a stencil's base node inside particle block pb's halo.
-inline Vec3i haloOffset(const Stencil& s, const GridLayout& layout, size_t pb) {
-  const Vec3i b = unpackBlock(layout.particle_keys[pb]) * kBlockSize;
-  return Vec3i(s.base[0] - b.x(), s.base[1] - b.y(), s.base[2] - b.z());
+// The first node of particle block pb: its halo's origin.
+inline Vec3i haloOrigin(const GridLayout& layout, size_t pb) {
+  return unpackBlock(layout.particle_keys[pb]) * kBlockSize;
+}
+
+// Position of a stencil's base node inside the halo that starts at node o.
+[[gnu::always_inline]] inline Vec3i haloOffset(const Stencil& s, const Vec3i& o) {
+  return Vec3i(s.base[0] - o.x(), s.base[1] - o.y(), s.base[2] - o.z());
 }
 
 // Particles per stress chunk: the batched SVD fills the vector lanes, and a
@@ -70,6 +74,17 @@ void updateDeformation(ParticleSet& set, size_t i, float dt, const Mat3f& C) {
 // multiplications of the sum node by node, each on a whole vector instead
 // of shuffled 3-vectors.
 // fv receives sum w_i f_i of a second buffer (FLIP's change) with kFlip.
+// a x + b y + c z. Written as one Eigen expression, GCC 12 called its
+// assignment loop out of line, four times per particle (5% of the step).
+[[gnu::always_inline]] inline Eigen::Vector4f sum3(float a, const Eigen::Vector4f& x, float b,
+                                                   const Eigen::Vector4f& y, float c,
+                                                   const Eigen::Vector4f& z) {
+  Eigen::Vector4f r = a * x;
+  r += b * y;
+  r += c * z;
+  return r;
+}
+
 template <bool kFlip>
 [[gnu::always_inline]] inline void gatherAffine(const HaloBuffer<4>& buf, const HaloBuffer<4>* fbuf,
                                                 const Vec3i& h, const Stencil& st, Vec3f& v,
@@ -96,27 +111,29 @@ template <bool kFlip>
     }
   }
   const float* w = st.w[0];
-  const V4 sv = w[0] * U[0] + w[1] * U[1] + w[2] * U[2];
-  const V4 bx = (w[0] * -st.fx[0]) * U[0] + (w[1] * (1.0f - st.fx[0])) * U[1] +
-                (w[2] * (2.0f - st.fx[0])) * U[2];
-  const V4 by = w[0] * Y[0] + w[1] * Y[1] + w[2] * Y[2];
-  const V4 bz = w[0] * Z[0] + w[1] * Z[1] + w[2] * Z[2];
+  const V4 sv = sum3(w[0], U[0], w[1], U[1], w[2], U[2]);
+  const V4 bx =
+      sum3(w[0] * -st.fx[0], U[0], w[1] * (1.0f - st.fx[0]), U[1], w[2] * (2.0f - st.fx[0]), U[2]);
+  const V4 by = sum3(w[0], Y[0], w[1], Y[1], w[2], Y[2]);
+  const V4 bz = sum3(w[0], Z[0], w[1], Z[1], w[2], Z[2]);
   v = sv.tail<3>();
   B.col(0) = bx.tail<3>();
   B.col(1) = by.tail<3>();
   B.col(2) = bz.tail<3>();
-  if constexpr (kFlip) fv = (w[0] * F[0] + w[1] * F[1] + w[2] * F[2]).tail<3>();
+  if constexpr (kFlip) fv = sum3(w[0], F[0], w[1], F[1], w[2], F[2]).tail<3>();
 }
 
+// Scatters particles [b, b + n) of a set, A[k] the affine momentum (times
+// dx) of particle b + k.
 template <bool kFlip>
-void scatterSet(const ParticleSet& set, const std::vector<uint32_t>& off, size_t pb,
-                const TransferParams& p, const GridLayout& layout, HaloBuffer<4>& buf,
-                HaloBuffer<4>* fbuf) {
+void scatterRun(const ParticleSet& set, size_t b, int n, const Mat3f* A_run, const Vec3i& origin,
+                const TransferParams& p, HaloBuffer<4>& buf, HaloBuffer<4>* fbuf) {
   const float m = set.mass;
-  for (uint32_t i = off[pb]; i < off[pb + 1]; ++i) {
+  for (int k = 0; k < n; ++k) {
+    const size_t i = b + size_t(k);
     const Stencil s = stencilAt(set.x[i], p.shifted_origin, p.inv_dx);
-    const Vec3i h = haloOffset(s, layout, pb);
-    const Mat3f& A = set.C[i];  // affine momentum times dx (computeAffine)
+    const Vec3i h = haloOffset(s, origin);
+    const Mat3f& A = A_run[k];
     const Vec3f fx(s.fx[0], s.fx[1], s.fx[2]);
     // Node momentum is w (m v + A (o - fx)) for stencil offset o; mass and
     // momentum go as one vector of four channels, as the buffer holds them.
@@ -127,15 +144,15 @@ void scatterSet(const ParticleSet& set, const std::vector<uint32_t>& off, size_t
         dc(0.0f, A(0, 2), A(1, 2), A(2, 2));
     for (int a = 0; a < 3; ++a) {
       const V4 pa = p0 + float(a) * da;
-      for (int b = 0; b < 3; ++b) {
-        const V4 pab = pa + float(b) * db;
-        const float wab = s.w[0][a] * s.w[1][b];
-        float* row = buf.d[HaloBuffer<4>::index(h.x() + a, h.y() + b, h.z())];
+      for (int bb = 0; bb < 3; ++bb) {
+        const V4 pab = pa + float(bb) * db;
+        const float wab = s.w[0][a] * s.w[1][bb];
+        float* row = buf.d[HaloBuffer<4>::index(h.x() + a, h.y() + bb, h.z())];
         for (int c = 0; c < 3; ++c) {
           const float w = wab * s.w[2][c];
           Eigen::Map<V4, Eigen::Aligned16>(row + 4 * c) += w * (pab + float(c) * dc);
           if constexpr (kFlip) {
-            float* frow = fbuf->d[HaloBuffer<4>::index(h.x() + a, h.y() + b, h.z() + c)];
+            float* frow = fbuf->d[HaloBuffer<4>::index(h.x() + a, h.y() + bb, h.z() + c)];
             frow[1] += w * m * set.v[i].x();
             frow[2] += w * m * set.v[i].y();
             frow[3] += w * m * set.v[i].z();
@@ -144,6 +161,45 @@ void scatterSet(const ParticleSet& set, const std::vector<uint32_t>& off, size_t
       }
     }
   }
+}
+
+// What the stress pass needs of a set: its material and the factors that
+// turn (C, tau) into the affine momentum.
+struct SetScales {
+  float stress = 0.0f;    // dt V0 (4/dx^2) dx
+  float momentum = 0.0f;  // m dx for APIC, 0 otherwise
+};
+
+SetScales setScales(const ParticleSet& set, const TransferParams& p) {
+  const bool apic = p.scheme == TransferScheme::Apic;
+  return {p.dt * set.volume * 4.0f * p.inv_dx * p.inv_dx * p.dx, apic ? set.mass * p.dx : 0.0f};
+}
+
+// Particle block pb's particles of one set: their stresses (plastic models
+// project F onto their yield surface first), folded with the APIC affine
+// velocity into the affine momentum m C dx - dt V0 (4/dx^2) tau dx (MLS-MPM),
+// then scattered. In chunks, so that a chunk's stresses are still in L1 when
+// the scatter reads them, and C, F and x are read once per step here instead
+// of once more in a pass of their own. Returns the largest stiffness scale
+// (snow's hardening; 1 for the others).
+template <class M, bool kFlip>
+float stressAndScatter(const M& model, ParticleSet& set, const SetScales& k,
+                       const std::vector<uint32_t>& off, size_t pb, const TransferParams& p,
+                       const GridLayout& layout, HaloBuffer<4>& buf, HaloBuffer<4>* fbuf) {
+  float max_scale = 1.0f;
+  const Vec3i origin = haloOrigin(layout, pb);
+  for (size_t b = off[pb]; b < off[pb + 1]; b += kStressChunk) {
+    const int n = int(std::min<size_t>(kStressChunk, off[pb + 1] - b));
+    Mat3f A[kStressChunk];
+    stressChunk(model, set, b, n, A);
+    for (int i = 0; i < n; ++i) A[i] = k.momentum * set.C[b + size_t(i)] - k.stress * A[i];
+    if constexpr (std::is_same_v<M, Snow<float>>) {
+      for (int i = 0; i < n; ++i)
+        max_scale = std::max(max_scale, model.stiffnessScale(set.J[b + size_t(i)]));
+    }
+    scatterRun<kFlip>(set, b, n, A, origin, p, buf, fbuf);
+  }
+  return max_scale;
 }
 
 // Whether particle block pb scatters into a layered grid block (a split run).
@@ -181,15 +237,18 @@ template <bool kFlip>
 }
 
 template <bool kFlip>
-void scatterAll(const std::vector<ParticleSet>& sets, const GridLayout& layout,
-                const TransferParams& p, std::vector<GridNode>& grid, std::vector<GridNode>* flip,
-                std::vector<GridNode>* layers, std::vector<GridNode>* flip_layers) {
+float scatterAll(std::vector<ParticleSet>& sets, const GridLayout& layout, const TransferParams& p,
+                 std::vector<GridNode>& grid, std::vector<GridNode>* flip,
+                 std::vector<GridNode>* layers, std::vector<GridNode>* flip_layers) {
   // Colours run one after another; blocks of one colour touch disjoint nodes,
   // so each node's sum has the same order for any thread count. One
   // parallel region for all eight (a barrier between colours): a region
   // per colour cost a wake-up of the sleeping threads each.
   const bool layered = layout.layered_blocks > 0 && layers != nullptr;
-#pragma omp parallel
+  std::vector<SetScales> scales;
+  for (const ParticleSet& set : sets) scales.push_back(setScales(set, p));
+  float max_scale = 1.0f;
+#pragma omp parallel reduction(max : max_scale)
   {
     HaloBuffer<4> buf;
     HaloBuffer<4> fbuf;
@@ -201,8 +260,18 @@ void scatterAll(const std::vector<ParticleSet>& sets, const GridLayout& layout,
         if (layout.sleeping(pb)) continue;
         std::memset(buf.d, 0, sizeof(buf.d));
         if constexpr (kFlip) std::memset(fbuf.d, 0, sizeof(fbuf.d));
-        for (size_t s = 0; s < sets.size(); ++s)
-          scatterSet<kFlip>(sets[s], layout.offsets[s], pb, p, layout, buf, &fbuf);
+        for (size_t s = 0; s < sets.size(); ++s) {
+          const std::vector<uint32_t>& off = layout.offsets[s];
+          if (off[pb] == off[pb + 1]) continue;
+          // The material variant is visited once per block and set.
+          const float scale = std::visit(
+              [&](const auto& model) {
+                return stressAndScatter<std::decay_t<decltype(model)>, kFlip>(
+                    model, sets[s], scales[s], off, pb, p, layout, buf, &fbuf);
+              },
+              sets[s].model);
+          max_scale = std::max(max_scale, scale);
+        }
         if (layered && touchesLayer(layout, pb)) {
           addToLayers<kFlip>(layout, pb, colour, buf, fbuf, grid, flip, *layers, flip_layers);
           continue;
@@ -223,6 +292,7 @@ void scatterAll(const std::vector<ParticleSet>& sets, const GridLayout& layout,
       }
     }
   }
+  return max_scale;
 }
 
 template <class M, bool kFlip>
@@ -243,13 +313,14 @@ G2PStats gatherSet(ParticleSet& set, size_t s, const GridLayout& layout,
     for (int64_t pb = 0; pb < static_cast<int64_t>(layout.particleBlocks()); ++pb) {
       if (off[pb] == off[pb + 1] || layout.sleeping(size_t(pb))) continue;
       float block_max2 = 0.0f;
+      const Vec3i origin = haloOrigin(layout, size_t(pb));
       forHalo(layout, pb, [&](int h, size_t node) {
         std::memcpy(buf.d[h], &grid[node], sizeof(GridNode));
         if constexpr (kFlip) std::memcpy(fbuf.d[h], &(*flip)[node], sizeof(GridNode));
       });
       for (uint32_t i = off[pb]; i < off[pb + 1]; ++i) {
         const Stencil st = stencilAt(set.x[i], p.shifted_origin, p.inv_dx);
-        const Vec3i h = haloOffset(st, layout, pb);
+        const Vec3i h = haloOffset(st, origin);
         Vec3f v, dv;
         Mat3f B;
         gatherAffine<kFlip>(buf, &fbuf, h, st, v, B, dv);
@@ -292,71 +363,10 @@ G2PStats gatherSet(ParticleSet& set, size_t s, const GridLayout& layout,
 
 }  // namespace
 
-namespace {
-
-// Chunks of at most kStressChunk particles covering the awake blocks' runs
-// of a set (start, count).
-void awakeChunks(const GridLayout& layout, size_t s, std::vector<std::pair<size_t, int>>& out) {
-  out.clear();
-  const std::vector<uint32_t>& off = layout.offsets[s];
-  size_t pb = 0;
-  const size_t nblocks = layout.particleBlocks();
-  while (pb < nblocks) {
-    if (layout.sleeping(pb)) {
-      ++pb;
-      continue;
-    }
-    size_t end = pb;
-    while (end < nblocks && !layout.sleeping(end)) ++end;
-    for (size_t b = off[pb]; b < off[end]; b += kStressChunk)
-      out.emplace_back(b, int(std::min<size_t>(kStressChunk, off[end] - b)));
-    pb = end;
-  }
-}
-
-}  // namespace
-
-float computeAffine(std::vector<ParticleSet>& sets, const TransferParams& p,
-                    const GridLayout* layout) {
-  const bool apic = p.scheme == TransferScheme::Apic;
-  const bool some_asleep = layout && !layout->asleep.empty();
-  float max_scale = 1.0f;
-  std::vector<std::pair<size_t, int>> awake;
-  for (size_t si = 0; si < sets.size(); ++si) {
-    ParticleSet& set = sets[si];
-    const float stress_scale = p.dt * set.volume * 4.0f * p.inv_dx * p.inv_dx * p.dx;
-    const float momentum_scale = apic ? set.mass * p.dx : 0.0f;
-    if (some_asleep) awakeChunks(*layout, si, awake);
-    const int64_t chunks = some_asleep
-                               ? static_cast<int64_t>(awake.size())
-                               : (static_cast<int64_t>(set.size()) + kStressChunk - 1) / kStressChunk;
-    std::visit(
-        [&](const auto& model) {
-          using M = std::decay_t<decltype(model)>;
-#pragma omp parallel for schedule(static) reduction(max : max_scale)
-          for (int64_t c = 0; c < chunks; ++c) {
-            const size_t b = some_asleep ? awake[size_t(c)].first : size_t(c) * kStressChunk;
-            const int n = some_asleep ? awake[size_t(c)].second
-                                      : int(std::min<size_t>(kStressChunk, set.size() - b));
-            Mat3f tau[kStressChunk];
-            stressChunk(model, set, b, n, tau);
-            for (int i = 0; i < n; ++i)
-              set.C[b + i] = momentum_scale * set.C[b + i] - stress_scale * tau[i];
-            if constexpr (std::is_same_v<M, Snow<float>>) {
-              for (int i = 0; i < n; ++i)
-                max_scale = std::max(max_scale, model.stiffnessScale(set.J[b + i]));
-            }
-          }
-        },
-        set.model);
-  }
-  return max_scale;
-}
-
-void particlesToGrid(const std::vector<ParticleSet>& sets, const GridLayout& layout,
-                     const TransferParams& p, std::vector<GridNode>& grid,
-                     std::vector<GridNode>* flip, std::vector<GridNode>* layers,
-                     std::vector<GridNode>* flip_layers) {
+float particlesToGrid(std::vector<ParticleSet>& sets, const GridLayout& layout,
+                      const TransferParams& p, std::vector<GridNode>& grid,
+                      std::vector<GridNode>* flip, std::vector<GridNode>* layers,
+                      std::vector<GridNode>* flip_layers) {
   const size_t nodes = layout.gridBlocks() * kBlockNodes;
   const size_t layer_nodes = layout.layered_blocks * 8 * kBlockNodes;
   grid.assign(nodes, GridNode{0, {0, 0, 0}});
@@ -364,10 +374,9 @@ void particlesToGrid(const std::vector<ParticleSet>& sets, const GridLayout& lay
   if (flip) {
     flip->assign(nodes, GridNode{0, {0, 0, 0}});
     if (flip_layers) flip_layers->assign(layer_nodes, GridNode{0, {0, 0, 0}});
-    scatterAll<true>(sets, layout, p, grid, flip, layers, flip_layers);
-  } else {
-    scatterAll<false>(sets, layout, p, grid, nullptr, layers, nullptr);
+    return scatterAll<true>(sets, layout, p, grid, flip, layers, flip_layers);
   }
+  return scatterAll<false>(sets, layout, p, grid, nullptr, layers, nullptr);
 }
 
 G2PStats gridToParticles(std::vector<ParticleSet>& sets, const GridLayout& layout,

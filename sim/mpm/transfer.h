@@ -29,23 +29,22 @@ struct G2PStats {
   bool finite = true;      // every particle's state finite
 };
 
-// Stress pass: replace each particle's C by its affine momentum
-// (m C for APIC, nothing for PIC/FLIP) minus the MLS stress impulse
-// dt V0 (4/dx^2) tau, pre-multiplied by dx. Plastic models project F onto
-// their yield surface here. The material variant is visited once per set.
-// Returns the largest stiffness scale (snow hardening; 1 for the others).
-// With a layout whose blocks sleep, their particles are left as they are.
-float computeAffine(std::vector<ParticleSet>& sets, const TransferParams& p,
-                    const GridLayout* layout = nullptr);
-
-// Scatter mass and momentum into `grid` (sized layout.gridBlocks() * 64).
+// P2G with the stress folded in (MLS-MPM): each particle's Kirchhoff
+// stress tau (plastic models project F onto their yield surface first) and
+// its APIC affine velocity C make its affine momentum
+// m C dx - dt V0 (4/dx^2) tau dx (nothing of C for PIC/FLIP), which
+// scatters with its mass and momentum into `grid` (sized
+// layout.gridBlocks() * 64). C itself is left as it is. The material
+// variant is visited once per block and set.
 // With FLIP, `flip` receives the momentum without the stress impulse.
 // Where the layout marks layered blocks (a split run), their sums go to
 // `layers` (and `flip_layers`) instead, 64 nodes per (slot * 8 + colour).
-void particlesToGrid(const std::vector<ParticleSet>& sets, const GridLayout& layout,
-                     const TransferParams& p, std::vector<GridNode>& grid,
-                     std::vector<GridNode>* flip, std::vector<GridNode>* layers = nullptr,
-                     std::vector<GridNode>* flip_layers = nullptr);
+// Particles of sleeping blocks are left as they are.
+// Returns the largest stiffness scale (snow hardening; 1 for the others).
+float particlesToGrid(std::vector<ParticleSet>& sets, const GridLayout& layout,
+                      const TransferParams& p, std::vector<GridNode>& grid,
+                      std::vector<GridNode>* flip, std::vector<GridNode>* layers = nullptr,
+                      std::vector<GridNode>* flip_layers = nullptr);
 
 // Gather velocities (and, with FLIP, velocity changes) back to particles,
 // advect them, and update each particle's F (or J for water). Sleeping
