@@ -271,6 +271,72 @@ TEST(PolarBatch, DoubleMatchesScalarNewtonAndSvd) {
   }
 }
 
+TEST(PolarLanes, FloatNewtonMatchesTheRotationOfTheSvd) {
+  // The stress kernel's polar rotation in lanes: the Newton iteration for
+  // well-conditioned F (near rotations, strong stretches, large and tiny
+  // scales), the SVD for a pass holding an inverted or nearly flat F, each
+  // against the double-precision rotation, with short tails. Counted: how
+  // many passes the Newton path served, so that neither path goes untested.
+  std::mt19937 rng(20);
+  int newton_passes = 0, svd_passes = 0;
+  for (const int n : {1, 7, svd3_detail::kLanes, 40, 131}) {
+    for (const bool with_inverted : {false, true}) {
+      std::vector<Mat3f> F(static_cast<size_t>(n));
+      for (int i = 0; i < n; ++i) {
+        const Mat3d Q = randomRotation<double>(rng);
+        Mat3d A;
+        switch (i % 4) {
+          case 0:
+            A = Q * (Mat3d::Identity() + randomMatrix<double>(rng, 1e-3));
+            break;
+          case 1:
+            A = Q * (Mat3d::Identity() + randomMatrix<double>(rng, 0.3));
+            break;
+          case 2:
+            A = Q * Vec3d(4.0, 0.4, 1.0).asDiagonal() * randomRotation<double>(rng);
+            break;  // ten to one
+          default:
+            A = (i % 8 == 3 ? 1e3 : 1e-3) * Q *
+                (Mat3d::Identity() + randomMatrix<double>(rng, 0.1));
+            break;
+        }
+        if (with_inverted && i == n / 2) A = Q * Vec3d(1.2, 0.8, -0.6).asDiagonal();
+        if (with_inverted && i == n / 3) A = Q * Vec3d(1.0, 1e-5, 0.5).asDiagonal();
+        F[size_t(i)] = A.cast<float>();
+      }
+      std::vector<Mat3f> R(static_cast<size_t>(n));
+      polarRotationLanes(
+          n, F.data(),
+          [&](int b, int count, const svd3_detail::Pack(&f)[9], const svd3_detail::Pack(&r)[9]) {
+            Mat3f back[svd3_detail::kLanes];
+            svd3_detail::storeLanes(count, f, back);
+            bool flat = false;
+            for (int l = 0; l < count; ++l) {
+              EXPECT_EQ(back[l], F[size_t(b + l)]);
+              const Mat3d A = back[l].cast<double>();
+              flat = flat || A.determinant() <= 1e-3 * std::pow(A.norm(), 3.0);
+            }
+            // Newton serves every pass without such an F.
+            svd3_detail::Pack x[9];
+            EXPECT_EQ(svd3_detail::newtonPolar(f, x), !flat);
+            svd3_detail::storeLanes(count, r, R.data() + b);
+            (flat ? svd_passes : newton_passes)++;
+          });
+      for (int i = 0; i < n; ++i) {
+        const Mat3f& A = F[size_t(i)];
+        const Mat3f& Rl = R[size_t(i)];
+        const Mat3d ref = polarRotation(Mat3d(A.cast<double>()));
+        EXPECT_LE((Rl.cast<double>() - ref).norm(), 2e-6) << "matrix " << i << " of " << n << "\n"
+                                                          << A;
+        EXPECT_LE((Rl.transpose() * Rl - Mat3f::Identity()).norm(), 2e-6f);
+        EXPECT_NEAR(Rl.determinant(), 1.0f, 2e-6f);
+      }
+    }
+  }
+  EXPECT_GT(newton_passes, 5);
+  EXPECT_GT(svd_passes, 5);
+}
+
 TEST(Svd3Batch, OutputsMayAliasInput) {
   std::mt19937 rng(18);
   std::vector<Mat3f> F(20), R(20);
