@@ -11,6 +11,8 @@ namespace {
 // an element are independent, so gathering slice k after slice k-1 was
 // written back still reads the unpermuted slice k. Matrices go in three
 // column passes and the scratch holds 12 bytes per particle instead of 36.
+constexpr size_t kParallelCopy = 32768;
+
 template <class T>
 void permuteArray(std::vector<T>& a, const std::vector<uint32_t>& src, unsigned char* tmp) {
   if (a.empty()) return;
@@ -18,11 +20,15 @@ void permuteArray(std::vector<T>& a, const std::vector<uint32_t>& src, unsigned 
   static_assert(kSlice <= ParticleSet::kPermuteScratch);
   const size_t n = a.size();
   unsigned char* base = reinterpret_cast<unsigned char*>(a.data());
+  // Below this many particles a loop takes less than waking the other
+  // threads for it (ten such loops a step: a draft-size scene's binning
+  // was mostly wake-ups).
+  const bool parallel = n > kParallelCopy;
   for (size_t at = 0; at < sizeof(T); at += kSlice) {
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (parallel)
     for (int64_t i = 0; i < static_cast<int64_t>(n); ++i)
       std::memcpy(tmp + size_t(i) * kSlice, base + size_t(src[size_t(i)]) * sizeof(T) + at, kSlice);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (parallel)
     for (int64_t i = 0; i < static_cast<int64_t>(n); ++i)
       std::memcpy(base + size_t(i) * sizeof(T) + at, tmp + size_t(i) * kSlice, kSlice);
   }

@@ -81,7 +81,7 @@ void Binner::bin(std::vector<ParticleSet>& sets, const Vec3f& shifted_origin, fl
       addRange(0, x.size());
     }
     chunk_runs_.resize(std::max(chunk_runs_.size(), chunks.size()));
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (chunks.size() > 1)
     for (int64_t c = 0; c < static_cast<int64_t>(chunks.size()); ++c) {
       std::vector<Run>& out = chunk_runs_[c];
       out.clear();

@@ -27,6 +27,18 @@ inline Vec3i haloOrigin(const GridLayout& layout, size_t pb) {
   return Vec3i(s.base[0] - o.x(), s.base[1] - o.y(), s.base[2] - o.z());
 }
 
+// Below this many particles in a transfer, one thread does it: waking the
+// others and meeting them at the scatter's eight colour barriers took longer
+// than the work (a draft-size scene ran faster on one thread than on two).
+constexpr size_t kParallelTransfer = 16384;
+
+// Particles of every set of a layout, asleep or not.
+size_t layoutParticles(const GridLayout& layout) {
+  size_t n = 0;
+  for (const std::vector<uint32_t>& off : layout.offsets) n += off.empty() ? 0 : off.back();
+  return n;
+}
+
 // Particles per stress chunk: the batched SVD fills the vector lanes, and a
 // chunk's stresses stay in L1 until they are folded into C.
 constexpr int kStressChunk = 128;
@@ -248,7 +260,7 @@ float scatterAll(std::vector<ParticleSet>& sets, const GridLayout& layout, const
   std::vector<SetScales> scales;
   for (const ParticleSet& set : sets) scales.push_back(setScales(set, p));
   float max_scale = 1.0f;
-#pragma omp parallel reduction(max : max_scale)
+#pragma omp parallel reduction(max : max_scale) if (layoutParticles(layout) > kParallelTransfer)
   {
     HaloBuffer<4> buf;
     HaloBuffer<4> fbuf;
@@ -305,7 +317,10 @@ G2PStats gatherSet(ParticleSet& set, size_t s, const GridLayout& layout,
   const float flip_ratio = p.flip_ratio;
   float max_speed2 = 0.0f;
   int all_finite = 1;
-#pragma omp parallel reduction(max : max_speed2) reduction(min : all_finite)
+#pragma omp parallel reduction(max           \
+                               : max_speed2) \
+    reduction(min                            \
+              : all_finite) if (off.back() > kParallelTransfer)
   {
     HaloBuffer<4> buf;
     HaloBuffer<4> fbuf;
