@@ -62,7 +62,12 @@ struct Stencil {
   float w[3][3];  // w[axis][offset]
 };
 
-inline Stencil stencilAt(const Vec3f& x, const Vec3f& shifted_origin, float inv_dx) {
+// The scatter inlines it always (returned through memory, it cost a tenth
+// of the scatter); the gather calls it out of line, as GCC chooses, which
+// measured faster there (inlined, the gather's loop compiled worse).
+[[gnu::always_inline]] inline Stencil stencilAlwaysInline(const Vec3f& x,
+                                                          const Vec3f& shifted_origin,
+                                                          float inv_dx) {
   Stencil s;
   for (int d = 0; d < 3; ++d) {
     const float t = shiftedCoord(x[d], shifted_origin[d], inv_dx);
@@ -75,6 +80,10 @@ inline Stencil stencilAt(const Vec3f& x, const Vec3f& shifted_origin, float inv_
     s.w[d][2] = 0.5f * (f - 0.5f) * (f - 0.5f);
   }
   return s;
+}
+
+inline Stencil stencilAt(const Vec3f& x, const Vec3f& shifted_origin, float inv_dx) {
+  return stencilAlwaysInline(x, shifted_origin, inv_dx);
 }
 
 }  // namespace triad
