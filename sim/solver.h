@@ -1,6 +1,6 @@
 #pragma once
 // The MLS-MPM time stepper. One step reads like the algorithm:
-// bin particles, compute stresses, P2G, grid update, G2P.
+// bin particles, P2G with the stresses, grid update, G2P.
 #include <functional>
 #include <memory>
 #include <vector>
@@ -46,7 +46,7 @@ struct StepRecord {
 // that a resumed run takes exactly the steps an uninterrupted one takes.
 struct SolverState {
   float max_speed = 0.0f;            // CFL speed from the last G2P
-  float max_stiffness_scale = 1.0f;  // snow hardening from the last stress pass
+  float max_stiffness_scale = 1.0f;  // snow hardening from the last P2G's stresses
   SleepState sleep;                  // how long each block has been still
 };
 

@@ -85,10 +85,10 @@ constexpr int kChunk = 64;
 }  // namespace
 
 void kirchhoffBatch(const FixedCorotated<float>& m, int n, const Mat3f* F, Mat3f* tau) {
-  // tau = 2 mu (F - R) F^T + lambda (J - 1) J I across the vector lanes, as
-  // the rotation comes out of the decomposition: one matrix at a time it
-  // cost half as much as the decomposition itself. tau is symmetric
-  // (R F^T = R S R^T), so six entries are computed.
+  // tau = 2 mu (F - R) F^T + lambda (J - 1) J I across the vector lanes,
+  // in the passes that find R: one matrix at a time it cost half as much
+  // as the SVD that found R then. tau is symmetric (R F^T = R S R^T), so
+  // six entries are computed.
   using svd3_detail::Pack;
   const Pack two_mu = svd3_detail::splat<Pack>(2.0f * m.mu);
   const Pack lambda = svd3_detail::splat<Pack>(m.lambda);

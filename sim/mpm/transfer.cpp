@@ -55,7 +55,7 @@ void stressChunk(const M& model, ParticleSet& set, size_t b, int n, Mat3f* tau) 
   } else if constexpr (std::is_same_v<M, DruckerPrager<float>>) {
     projectAndKirchhoffBatch(model, n, &set.F[b], tau);
   } else if constexpr (std::is_same_v<M, MohrCoulomb<float>>) {
-    // Between G2P and this pass C holds the velocity gradient, which mu(I) reads.
+    // C holds the velocity gradient of the last G2P, which mu(I) reads.
     if (model.rateDependent())
       projectAndKirchhoffBatch(model, n, &set.F[b], &set.C[b], tau);
     else
@@ -185,8 +185,7 @@ void scatterRun(const ParticleSet& set, size_t b, int n, const Mat3f* A_run, con
   }
 }
 
-// What the stress pass needs of a set: its material and the factors that
-// turn (C, tau) into the affine momentum.
+// The factors that turn a set's (C, tau) into its affine momentum.
 struct SetScales {
   float stress = 0.0f;    // dt V0 (4/dx^2) dx
   float momentum = 0.0f;  // m dx for APIC, 0 otherwise
@@ -325,10 +324,10 @@ G2PStats gatherSet(ParticleSet& set, size_t s, const GridLayout& layout,
   const float flip_ratio = p.flip_ratio;
   float max_speed2 = 0.0f;
   int all_finite = 1;
-#pragma omp parallel reduction(max           \
-                               : max_speed2) \
-    reduction(min                            \
-              : all_finite) if (off.back() > kParallelTransfer)
+  const bool parallel = off.back() > kParallelTransfer;
+  // clang-format off
+#pragma omp parallel reduction(max : max_speed2) reduction(min : all_finite) if (parallel)
+  // clang-format on
   {
     HaloBuffer<4> buf;
     HaloBuffer<4> fbuf;
