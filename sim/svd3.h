@@ -667,6 +667,22 @@ inline void polarRotationLanes(int n, const Mat3f* F, Fn&& fn) {
   }
 }
 
+// svd3Batch with the lanes handed on: for each pass over up to kLanes
+// matrices from F[b], fn(b, count, f, u, sigma, v) receives F, U, sigma and V
+// as lane vectors (matrix entry (i, j) at [3 i + j]), so that a caller's
+// formula in them (a plastic return, a stress) runs across the lanes too.
+template <class Fn>
+inline void svdLanes(int n, const Mat3f* F, Fn&& fn) {
+  using namespace svd3_detail;
+  for (int b = 0; b < n; b += kLanes) {
+    const int count = n - b < kLanes ? n - b : kLanes;
+    Pack f[9], u[9], s[3], v[9];
+    loadLanes(count, F + b, f);
+    svdKernel(f, u, s, v);
+    fn(b, count, f, u, s, v);
+  }
+}
+
 }  // namespace triad
 
 #undef TRIAD_SVD3_INLINE

@@ -556,6 +556,40 @@ TEST(FloatModels, BatchesMatchSingleCallsAndDouble) {
     const float noise = 2e-6f * (2 * sand.elastic.mu + 3 * sand.elastic.lambda);
     EXPECT_LT((tau[i] - t).norm(), 1e-4f * t.norm() + noise);
   }
+
+  // The batch's return runs in the SVD's lanes: every case of the cone
+  // against the single call, with and without cohesion (which moves the
+  // apex into tension): states inside, compressed states that yield,
+  // stretched ones that go to the apex, and inverted F (det < 0).
+  const DruckerPrager<float> sticky(1e5f, 0.3f, 35.0f, 2e3f);
+  std::vector<Mat3f> G(n);
+  for (int i = 0; i < n; ++i) {
+    Mat3d A = nearIdentity(rng, 0.2);
+    if (i % 4 == 1) A *= 0.8;
+    if (i % 4 == 2) A *= 1.05;
+    if (i % 10 == 3) A.col(2) *= -1.0;
+    G[size_t(i)] = A.cast<float>();
+  }
+  for (const DruckerPrager<float>* model : {&sand, &sticky}) {
+    std::vector<Mat3f> Fb = G;
+    projectAndKirchhoffBatch(*model, n, Fb.data(), tau.data());
+    int moved = 0;
+    for (int i = 0; i < n; ++i) {
+      Mat3f a = G[size_t(i)];
+      const Mat3f t = model->projectAndKirchhoff(a);
+      moved += a != G[size_t(i)];
+      EXPECT_LT((Fb[size_t(i)] - a).norm(), 2e-5f * a.norm()) << "matrix " << i;
+      // Unmoved states keep their F bit for bit.
+      if (a == G[size_t(i)]) {
+        EXPECT_EQ(Fb[size_t(i)], G[size_t(i)]);
+      }
+      const float noise = 2e-6f * (2 * model->elastic.mu + 3 * model->elastic.lambda);
+      EXPECT_LT((tau[size_t(i)] - t).norm(), 1e-4f * t.norm() + noise) << "matrix " << i;
+    }
+    // Both branches are exercised.
+    EXPECT_GT(moved, n / 4);
+    EXPECT_LT(moved, n);
+  }
 }
 
 }  // namespace

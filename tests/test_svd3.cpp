@@ -1,8 +1,11 @@
 // Tests for sim/svd3.h: the rotation-variant SVD and polar decomposition in
 // float (the McAdams-style kernel, scalar and batched) and double (Eigen).
+#include "sim/lane_math.h"
 #include "sim/svd3.h"
 
 #include <cmath>
+#include <cstdio>
+#include <cstring>
 #include <random>
 #include <vector>
 
@@ -344,6 +347,45 @@ TEST(Svd3Batch, OutputsMayAliasInput) {
   polarRotationBatch(20, F.data(), R.data());
   polarRotationBatch(20, F.data(), F.data());
   for (int i = 0; i < 20; ++i) EXPECT_EQ(F[i], R[i]);
+}
+
+}  // namespace
+}  // namespace triad
+
+namespace triad {
+namespace {
+
+// The lanes' log and exp against libm over their ranges: log over every
+// binade of positive normal floats, exp over [-87, 88], where a sand
+// particle's return takes them.
+TEST(LaneMath, LogAndExpMatchLibm) {
+  std::mt19937 rng(21);
+  std::uniform_real_distribution<float> mantissa(1.0f, 2.0f), power(-87.0f, 88.0f);
+  constexpr int L = svd3_detail::kLanes;
+  double worst_log = 0, worst_exp = 0;
+  for (int pass = 0; pass < 2000; ++pass) {
+    alignas(64) float x[L], y[L], lx[L], ey[L];
+    for (int l = 0; l < L; ++l) {
+      x[l] = std::ldexp(mantissa(rng), int(pass % 250) - 125 + l % 2);
+      y[l] = power(rng);
+    }
+    if (pass == 0) x[0] = 1.0f, y[0] = 0.0f;
+    svd3_detail::Pack px, py;
+    std::memcpy(&px, x, sizeof(px));
+    std::memcpy(&py, y, sizeof(py));
+    const svd3_detail::Pack lp = svd3_detail::logv(px), ep = svd3_detail::expv(py);
+    std::memcpy(lx, &lp, sizeof(lx));
+    std::memcpy(ey, &ep, sizeof(ey));
+    for (int l = 0; l < L; ++l) {
+      const double ref_log = std::log(double(x[l])), ref_exp = std::exp(double(y[l]));
+      // log: absolute near x = 1 (where it passes zero), else relative.
+      worst_log = std::max(worst_log, std::abs(lx[l] - ref_log) / std::max(1.0, std::abs(ref_log)));
+      worst_exp = std::max(worst_exp, std::abs(ey[l] - ref_exp) / ref_exp);
+    }
+  }
+  std::printf("log: %.2e, exp: %.2e relative\n", worst_log, worst_exp);
+  EXPECT_LT(worst_log, 2.5e-7);
+  EXPECT_LT(worst_exp, 2.5e-7);
 }
 
 }  // namespace

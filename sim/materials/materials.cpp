@@ -3,8 +3,8 @@
 #include "sim/materials/materials.h"
 
 #include <cmath>
-#include <type_traits>
 
+#include "sim/lane_math.h"
 #include "sim/svd3.h"
 
 namespace triad {
@@ -126,25 +126,21 @@ void projectAndKirchhoffBatch(const Snow<float>& m, int n, Mat3f* Fe, float* Jp,
 
 namespace {
 
-// The Hencky-strain sands: batched SVDs, then each particle's return and
-// stress; with grad_v (Mohr-Coulomb's mu(I)) the return reads each
-// particle's velocity gradient.
-template <class M>
-void henckyPlasticBatch(const M& m, int n, Mat3f* F, const Mat3f* grad_v, Mat3f* tau) {
+// Mohr-Coulomb sand: batched SVDs, then each particle's return (its
+// principal stresses sorted, plane, edge or apex) and stress; with grad_v
+// (mu(I)) the return reads each particle's velocity gradient.
+void mohrCoulombBatch(const MohrCoulomb<float>& m, int n, Mat3f* F, const Mat3f* grad_v,
+                      Mat3f* tau) {
   Mat3f U[kChunk], V[kChunk];
   Vec3f s[kChunk];
   for (int b = 0; b < n; b += kChunk) {
     const int count = std::min(kChunk, n - b);
     svd3Batch(count, F + b, U, s, V);
     for (int i = 0; i < count; ++i) {
-      if constexpr (std::is_same_v<M, MohrCoulomb<float>>) {
-        if (grad_v)
-          m.projectSvd(U[i], s[i], V[i], F[b + i], grad_v[b + i]);
-        else
-          m.projectSvd(U[i], s[i], V[i], F[b + i]);
-      } else {
+      if (grad_v)
+        m.projectSvd(U[i], s[i], V[i], F[b + i], grad_v[b + i]);
+      else
         m.projectSvd(U[i], s[i], V[i], F[b + i]);
-      }
       tau[b + i] = m.elastic.kirchhoffFromSvd(U[i], s[i]);
     }
   }
@@ -153,16 +149,78 @@ void henckyPlasticBatch(const M& m, int n, Mat3f* F, const Mat3f* grad_v, Mat3f*
 }  // namespace
 
 void projectAndKirchhoffBatch(const DruckerPrager<float>& m, int n, Mat3f* F, Mat3f* tau) {
-  henckyPlasticBatch(m, n, F, nullptr, tau);
+  // DruckerPrager::projectSvd and StvkHencky::kirchhoffFromSvd across the
+  // SVD's lanes: the return, the new F and tau without leaving the vector
+  // registers (one particle at a time, the return cost more than the SVD).
+  using svd3_detail::Pack;
+  using svd3_detail::splat;
+  const float c = m.cohesion_strain, slope = m.coneSlope();
+  const float min_log = std::log(StvkHencky<float>::kMinSingular);
+  const Pack two_mu = splat<Pack>(2.0f * m.elastic.mu), lambda = splat<Pack>(m.elastic.lambda);
+  svdLanes(n, F,
+           [&](int b, int count, const Pack(&f)[9], const Pack(&u)[9], const Pack(&s)[3],
+               const Pack(&v)[9]) {
+             // Hencky strain of the singular values floored away from zero.
+             Pack eps[3];
+             for (int i = 0; i < 3; ++i) {
+               const Pack a = svd3_detail::absv(s[i]);
+               eps[i] = svd3_detail::logv(a < StvkHencky<float>::kMinSingular
+                                              ? splat<Pack>(StvkHencky<float>::kMinSingular)
+                                              : a) -
+                        c;
+             }
+             const Pack tr = eps[0] + eps[1] + eps[2];
+             Pack dev[3];
+             for (int i = 0; i < 3; ++i) dev[i] = eps[i] - tr * (1.0f / 3.0f);
+             const Pack dev_norm =
+                 svd3_detail::sqrtv(dev[0] * dev[0] + dev[1] * dev[1] + dev[2] * dev[2]);
+             const Pack dgamma = dev_norm + slope * tr;
+             // Tension to the apex; outside the cone radially onto it at constant tr.
+             const auto tension = tr >= 0.0f;
+             const auto yield = dgamma > 0.0f;
+             const Pack shrink = dgamma / (dev_norm > 0.0f ? dev_norm : splat<Pack>(1.0f));
+             Pack h[3];  // log of the new singular values
+             for (int i = 0; i < 3; ++i) {
+               const Pack returned = tension ? splat<Pack>(c) : eps[i] - shrink * dev[i] + c;
+               h[i] = (tension || yield) ? returned : eps[i] + c;
+             }
+             const auto moved = tension || yield;
+             if (svd3_detail::laneMax(moved ? splat<Pack>(1.0f) : splat<Pack>(0.0f)) > 0.0f) {
+               // F = U diag(e^h) V^T where the return moved the state.
+               Pack e[3], g[9];
+               for (int i = 0; i < 3; ++i) e[i] = svd3_detail::expv(h[i]);
+               for (int i = 0; i < 3; ++i)
+                 for (int j = 0; j < 3; ++j) {
+                   const Pack fij = u[3 * i] * e[0] * v[3 * j] +
+                                    u[3 * i + 1] * e[1] * v[3 * j + 1] +
+                                    u[3 * i + 2] * e[2] * v[3 * j + 2];
+                   g[3 * i + j] = moved ? fij : f[3 * i + j];
+                 }
+               svd3_detail::storeLanes(count, g, F + b);
+             }
+             // tau = U diag(2 mu h + lambda tr h) U^T, h floored as the SVD's values are.
+             Pack t[3];
+             for (int i = 0; i < 3; ++i) h[i] = h[i] < min_log ? splat<Pack>(min_log) : h[i];
+             const Pack trh = lambda * (h[0] + h[1] + h[2]);
+             for (int i = 0; i < 3; ++i) t[i] = two_mu * h[i] + trh;
+             Pack out[9];
+             for (int i = 0; i < 3; ++i)
+               for (int j = i; j < 3; ++j) {
+                 out[3 * i + j] = u[3 * i] * t[0] * u[3 * j] + u[3 * i + 1] * t[1] * u[3 * j + 1] +
+                                  u[3 * i + 2] * t[2] * u[3 * j + 2];
+                 out[3 * j + i] = out[3 * i + j];
+               }
+             svd3_detail::storeLanes(count, out, tau + b);
+           });
 }
 
 void projectAndKirchhoffBatch(const MohrCoulomb<float>& m, int n, Mat3f* F, Mat3f* tau) {
-  henckyPlasticBatch(m, n, F, nullptr, tau);
+  mohrCoulombBatch(m, n, F, nullptr, tau);
 }
 
 void projectAndKirchhoffBatch(const MohrCoulomb<float>& m, int n, Mat3f* F, const Mat3f* grad_v,
                               Mat3f* tau) {
-  henckyPlasticBatch(m, n, F, grad_v, tau);
+  mohrCoulombBatch(m, n, F, grad_v, tau);
 }
 
 }  // namespace triad

@@ -182,7 +182,7 @@ struct DruckerPrager : HenckyPlastic<T, DruckerPrager<T>> {
     return true;
   }
 
- private:
+  // The cone's slope in strain units: k alpha.
   T coneSlope() const {
     return (T(3) * elastic.lambda + T(2) * elastic.mu) / (T(2) * elastic.mu) * alpha;
   }
