@@ -557,6 +557,23 @@ TEST(FloatModels, BatchesMatchSingleCallsAndDouble) {
     EXPECT_LT((tau[i] - t).norm(), 1e-4f * t.norm() + noise);
   }
 
+  // Water's pressure in the lanes, J compressed and stretched past both
+  // clamps, with and without viscosity.
+  for (const float viscosity : {0.0f, 0.5f}) {
+    const Water<float> water{2e5f, 7.0f, viscosity};
+    std::vector<float> J(n);
+    std::vector<Mat3f> grad(n);
+    for (int i = 0; i < n; ++i) {
+      J[size_t(i)] = i == 0 ? 0.05f : i == 1 ? 12.0f : float(0.9 + 0.2 * i / n);
+      grad[size_t(i)] = nearIdentity(rng, 1.0).cast<float>() - Mat3f::Identity();
+    }
+    kirchhoffBatch(water, n, J.data(), grad.data(), tau.data());
+    for (int i = 0; i < n; ++i) {
+      const Mat3f t = water.kirchhoff(J[size_t(i)], grad[size_t(i)]);
+      EXPECT_LT((tau[size_t(i)] - t).norm(), 2e-6f * t.norm() + 1e-3f) << "J " << J[size_t(i)];
+    }
+  }
+
   // The batch's return runs in the SVD's lanes: every case of the cone
   // against the single call, with and without cohesion (which moves the
   // apex into tension): states inside, compressed states that yield,

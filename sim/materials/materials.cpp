@@ -2,7 +2,9 @@
 // kernels (float only, so they live here rather than in the headers).
 #include "sim/materials/materials.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include "sim/lane_math.h"
 #include "sim/svd3.h"
@@ -111,6 +113,38 @@ void kirchhoffBatch(const FixedCorotated<float>& m, int n, const Mat3f* F, Mat3f
     t[8] += p;
     svd3_detail::storeLanes(count, t, tau + b);
   });
+}
+
+void kirchhoffBatch(const Water<float>& m, int n, const float* J, const Mat3f* grad_v, Mat3f* tau) {
+  // Tait's J^-gamma across the vector lanes as exp(-gamma ln J): libm's
+  // powf, one call per particle, was 40% of the water's stress.
+  using svd3_detail::kLanes;
+  using svd3_detail::Pack;
+  using svd3_detail::splat;
+  const float k = m.bulk / m.gamma;
+  for (int b = 0; b < n; b += kLanes) {
+    const int count = std::min(kLanes, n - b);
+    alignas(64) float in[kLanes], jc[kLanes], jp[kLanes];
+    for (int l = 0; l < kLanes; ++l) in[l] = l < count ? J[b + l] : 1.0f;
+    Pack x;
+    std::memcpy(&x, in, sizeof(x));
+    x = x < Water<float>::kMinJ ? splat<Pack>(Water<float>::kMinJ) : x;
+    x = x > Water<float>::kMaxJ ? splat<Pack>(Water<float>::kMaxJ) : x;
+    const Pack p = k * (svd3_detail::expv(-m.gamma * svd3_detail::logv(x)) - 1.0f);
+    const Pack xp = x * p;
+    std::memcpy(jc, &x, sizeof(jc));
+    std::memcpy(jp, &xp, sizeof(jp));
+    for (int l = 0; l < count; ++l) {
+      Mat3f& t = tau[b + l];
+      if (m.viscosity != 0.0f) {
+        const Mat3f& g = grad_v[b + l];
+        t = jc[l] * m.viscosity * (g + g.transpose());
+      } else {
+        t.setZero();
+      }
+      t.diagonal().array() -= jp[l];
+    }
+  }
 }
 
 void projectAndKirchhoffBatch(const Snow<float>& m, int n, Mat3f* Fe, float* Jp, Mat3f* tau) {

@@ -87,6 +87,8 @@ const char* modelName(MaterialModel model);
 // the results equal the single calls up to float rounding.
 // tau[i] = m.kirchhoff(F[i]).
 void kirchhoffBatch(const FixedCorotated<float>& m, int n, const Mat3f* F, Mat3f* tau);
+// tau[i] = m.kirchhoff(J[i], grad_v[i]).
+void kirchhoffBatch(const Water<float>& m, int n, const float* J, const Mat3f* grad_v, Mat3f* tau);
 // tau[i] = m.projectAndKirchhoff(Fe[i], Jp[i]); Fe and Jp are updated.
 void projectAndKirchhoffBatch(const Snow<float>& m, int n, Mat3f* Fe, float* Jp, Mat3f* tau);
 // tau[i] = m.projectAndKirchhoff(F[i]); F is updated.

@@ -61,7 +61,7 @@ void stressChunk(const M& model, ParticleSet& set, size_t b, int n, Mat3f* tau) 
     else
       projectAndKirchhoffBatch(model, n, &set.F[b], tau);
   } else if constexpr (std::is_same_v<M, Water<float>>) {
-    for (int i = 0; i < n; ++i) tau[i] = model.kirchhoff(set.J[b + i], set.C[b + i]);
+    kirchhoffBatch(model, n, &set.J[b], &set.C[b], tau);
   } else {
     for (int i = 0; i < n; ++i) tau[i] = model.kirchhoff(set.F[b + i]);
   }
