@@ -213,12 +213,12 @@ void projectAndKirchhoffBatch(const DruckerPrager<float>& m, int n, Mat3f* F, Ma
              const auto tension = tr >= 0.0f;
              const auto yield = dgamma > 0.0f;
              const Pack shrink = dgamma / (dev_norm > 0.0f ? dev_norm : splat<Pack>(1.0f));
+             const auto moved = tension || yield;
              Pack h[3];  // log of the new singular values
              for (int i = 0; i < 3; ++i) {
                const Pack returned = tension ? splat<Pack>(c) : eps[i] - shrink * dev[i] + c;
-               h[i] = (tension || yield) ? returned : eps[i] + c;
+               h[i] = moved ? returned : eps[i] + c;
              }
-             const auto moved = tension || yield;
              if (svd3_detail::laneMax(moved ? splat<Pack>(1.0f) : splat<Pack>(0.0f)) > 0.0f) {
                // F = U diag(e^h) V^T where the return moved the state.
                Pack e[3], g[9];
