@@ -13,7 +13,8 @@ namespace {
 // that the per-particle loops touch only L1-resident memory.
 template <int kChannels>
 struct HaloBuffer {
-  alignas(64) float d[kHaloNodes][kChannels];
+  // One node more than the halo: a row's four-node vectors end past the last one.
+  alignas(64) float d[kHaloNodes + 1][kChannels];
   static int index(int x, int y, int z) { return (x * kHalo + y) * kHalo + z; }
 };
 
@@ -78,69 +79,74 @@ void updateDeformation(ParticleSet& set, size_t i, float dt, const Mat3f& C) {
   }
 }
 
-// The velocity v = sum w_i v_i at a particle and its affine part
-// B = sum w_i v_i (o_i - fx)^T over the 27 nodes of its stencil (o_i the
-// node's offset from the base node). The weights are products of one
-// weight per axis, so the sums contract one axis at a time (z, then y,
-// then x), each node's four channels (m, v) one vector: two thirds of the
-// multiplications of the sum node by node, each on a whole vector instead
-// of shuffled 3-vectors.
-// fv receives sum w_i f_i of a second buffer (FLIP's change) with kFlip.
-// a x + b y + c z. Written as one Eigen expression, GCC 12 called its
-// assignment loop out of line, four times per particle (5% of the step).
-[[gnu::always_inline]] inline Eigen::Vector4f sum3(float a, const Eigen::Vector4f& x, float b,
-                                                   const Eigen::Vector4f& y, float c,
-                                                   const Eigen::Vector4f& z) {
-  Eigen::Vector4f r = a * x;
-  r += b * y;
-  r += c * z;
+// Four floats in one SSE register (GCC's and clang's vector extension); the
+// halo buffer's rows are 16-byte aligned; may_alias as for SSE's __m128.
+typedef float Lanes4 __attribute__((vector_size(16), may_alias));
+// Sixteen floats: the four channels (m, m v) of four nodes next to each
+// other along z, the stencil's three and the one after them. One AVX-512
+// register, or two AVX2 ones.
+typedef float Lanes16 __attribute__((vector_size(64)));
+
+// A halo row's four nodes from node p on (the buffer holds one node past
+// its last row for this read).
+[[gnu::always_inline]] inline Lanes16 loadRow(const float* p) {
+  Lanes16 r;
+  std::memcpy(&r, p, sizeof(r));
   return r;
 }
 
+// Node c's four channels of a row's sum.
+template <int c>
+[[gnu::always_inline]] inline Lanes4 group(const Lanes16& g) {
+  return __builtin_shufflevector(g, g, 4 * c, 4 * c + 1, 4 * c + 2, 4 * c + 3);
+}
+
+// The velocity v = sum w_i v_i at a particle and its affine part
+// B = sum w_i v_i (o_i - fx)^T over the 27 nodes of its stencil (o_i the
+// node's offset from the base node); fv receives sum w_i f_i of a second
+// buffer (FLIP's change) with kFlip. The weights are products of one
+// weight per axis, so the z weights factor out of every sum: each row of
+// four nodes along z is one vector, summed with its x and y weights, and
+// the z weights (and z's offsets, for B's third column) are applied once
+// at the end to the three node groups; the fourth node is never used.
+// A third of the vector operations of summing node by node.
 template <bool kFlip>
 [[gnu::always_inline]] inline void gatherAffine(const HaloBuffer<4>& buf, const HaloBuffer<4>* fbuf,
                                                 const Vec3i& h, const Stencil& st, Vec3f& v,
                                                 Mat3f& B, Vec3f& fv) {
-  using V4 = Eigen::Vector4f;
-  using Node = Eigen::Map<const V4, Eigen::Aligned16>;
-  V4 U[3], Y[3], Z[3], F[3];
-  // Unrolled, so that the sums stay in registers (a loop over a kept them in
-  // memory, stored and loaded again per particle).
+  Lanes16 G = {}, GX = {}, GY = {}, FG = {};
+  // Unrolled, so that the sums stay in registers.
 #pragma GCC unroll 3
   for (int a = 0; a < 3; ++a) {
-    U[a] = Y[a] = Z[a] = F[a] = V4::Zero();
+    Lanes16 Ga = {}, GYa = {}, FGa = {};
+#pragma GCC unroll 3
     for (int b = 0; b < 3; ++b) {
-      // The three nodes along z lie next to each other in the buffer.
       const int row = HaloBuffer<4>::index(h.x() + a, h.y() + b, h.z());
-      const Node n0(buf.d[row]), n1(buf.d[row + 1]), n2(buf.d[row + 2]);
-      const V4 S = st.w[2][0] * n0 + st.w[2][1] * n1 + st.w[2][2] * n2;
-      const V4 T = st.w[2][1] * n1 + (2.0f * st.w[2][2]) * n2;
+      const Lanes16 n = loadRow(buf.d[row]);
       const float wb = st.w[1][b];
-      U[a] += wb * S;
-      Y[a] += (wb * (float(b) - st.fx[1])) * S;
-      Z[a] += wb * (T - st.fx[2] * S);
-      if constexpr (kFlip) {
-        const Node f0(fbuf->d[row]), f1(fbuf->d[row + 1]), f2(fbuf->d[row + 2]);
-        F[a] += wb * (st.w[2][0] * f0 + st.w[2][1] * f1 + st.w[2][2] * f2);
-      }
+      Ga += wb * n;
+      GYa += (wb * (float(b) - st.fx[1])) * n;
+      if constexpr (kFlip) FGa += wb * loadRow(fbuf->d[row]);
     }
+    const float wa = st.w[0][a];
+    G += wa * Ga;
+    GX += (wa * (float(a) - st.fx[0])) * Ga;
+    GY += wa * GYa;
+    if constexpr (kFlip) FG += wa * FGa;
   }
-  const float* w = st.w[0];
-  const V4 sv = sum3(w[0], U[0], w[1], U[1], w[2], U[2]);
-  const V4 bx =
-      sum3(w[0] * -st.fx[0], U[0], w[1] * (1.0f - st.fx[0]), U[1], w[2] * (2.0f - st.fx[0]), U[2]);
-  const V4 by = sum3(w[0], Y[0], w[1], Y[1], w[2], Y[2]);
-  const V4 bz = sum3(w[0], Z[0], w[1], Z[1], w[2], Z[2]);
-  v = sv.tail<3>();
-  B.col(0) = bx.tail<3>();
-  B.col(1) = by.tail<3>();
-  B.col(2) = bz.tail<3>();
-  if constexpr (kFlip) fv = sum3(w[0], F[0], w[1], F[1], w[2], F[2]).tail<3>();
+  const float* w = st.w[2];
+  const Lanes4 sv = w[0] * group<0>(G) + w[1] * group<1>(G) + w[2] * group<2>(G);
+  const Lanes4 bx = w[0] * group<0>(GX) + w[1] * group<1>(GX) + w[2] * group<2>(GX);
+  const Lanes4 by = w[0] * group<0>(GY) + w[1] * group<1>(GY) + w[2] * group<2>(GY);
+  const Lanes4 bz = (w[0] * -st.fx[2]) * group<0>(G) + (w[1] * (1.0f - st.fx[2])) * group<1>(G) +
+                    (w[2] * (2.0f - st.fx[2])) * group<2>(G);
+  v = Vec3f(sv[1], sv[2], sv[3]);
+  B << bx[1], by[1], bz[1], bx[2], by[2], bz[2], bx[3], by[3], bz[3];
+  if constexpr (kFlip) {
+    const Lanes4 f = w[0] * group<0>(FG) + w[1] * group<1>(FG) + w[2] * group<2>(FG);
+    fv = Vec3f(f[1], f[2], f[3]);
+  }
 }
-
-// Four floats in one SSE register (GCC's and clang's vector extension); the
-// halo buffer's rows are 16-byte aligned; may_alias as for SSE's __m128.
-typedef float Lanes4 __attribute__((vector_size(16), may_alias));
 
 // Scatters particles [b, b + n) of a set, A[k] the affine momentum (times
 // dx) of particle b + k.
@@ -155,25 +161,40 @@ void scatterRun(const ParticleSet& set, size_t b, int n, const Mat3f* A_run, con
     const Mat3f& A = A_run[k];
     const Vec3f fx(s.fx[0], s.fx[1], s.fx[2]);
     // Node momentum is w (m v + A (o - fx)) for stencil offset o; mass and
-    // momentum go as one vector of four channels, as the buffer holds them.
-    // GCC's vectors, built from registers: Eigen's Vector4f(a, b, c, d)
-    // went through four narrow stores and one wide load, which cannot be
-    // forwarded and stalled the scatter a fifth of its time.
+    // momentum go as one vector of four channels, as the buffer holds them,
+    // and a row's four nodes along z as one vector of sixteen (lanes 4c to
+    // 4c + 3 node c's). The fourth node's lanes are zero in every term, so
+    // it gains exactly nothing. GCC's vectors, built from registers:
+    // Eigen's Vector4f(a, b, c, d) went through four narrow stores and one
+    // wide load, which cannot be forwarded and stalled the scatter a fifth
+    // of its time.
     const Vec3f mv0 = m * set.v[i] - A * fx;
-    const Lanes4 p0 = {m, mv0.x(), mv0.y(), mv0.z()};
-    const Lanes4 da = {0.0f, A(0, 0), A(1, 0), A(2, 0)}, db = {0.0f, A(0, 1), A(1, 1), A(2, 1)},
-                 dc = {0.0f, A(0, 2), A(1, 2), A(2, 2)};
+    const Lanes16 p0 = {m, mv0.x(), mv0.y(), mv0.z(), m, mv0.x(), mv0.y(), mv0.z(),
+                        m, mv0.x(), mv0.y(), mv0.z(), 0, 0,       0,       0};
+    const Lanes16 da = {0, A(0, 0), A(1, 0), A(2, 0), 0, A(0, 0), A(1, 0), A(2, 0),
+                        0, A(0, 0), A(1, 0), A(2, 0), 0, 0,       0,       0};
+    const Lanes16 db = {0, A(0, 1), A(1, 1), A(2, 1), 0, A(0, 1), A(1, 1), A(2, 1),
+                        0, A(0, 1), A(1, 1), A(2, 1), 0, 0,       0,       0};
+    const Lanes16 dc = {
+        0, 0, 0, 0, 0, A(0, 2), A(1, 2), A(2, 2), 0, 2.0f * A(0, 2), 2.0f * A(1, 2), 2.0f * A(2, 2),
+        0, 0, 0, 0};
+    const Lanes16 wz = {s.w[2][0], s.w[2][0], s.w[2][0], s.w[2][0], s.w[2][1], s.w[2][1],
+                        s.w[2][1], s.w[2][1], s.w[2][2], s.w[2][2], s.w[2][2], s.w[2][2],
+                        0,         0,         0,         0};
+    const Lanes16 p0c = p0 + dc;
     for (int a = 0; a < 3; ++a) {
-      const Lanes4 pa = p0 + float(a) * da;
+      const Lanes16 pa = p0c + float(a) * da;
       for (int bb = 0; bb < 3; ++bb) {
-        const Lanes4 pab = pa + float(bb) * db;
+        const Lanes16 pab = pa + float(bb) * db;
         const float wab = s.w[0][a] * s.w[1][bb];
         float* row = buf.d[HaloBuffer<4>::index(h.x() + a, h.y() + bb, h.z())];
-        for (int c = 0; c < 3; ++c) {
-          const float w = wab * s.w[2][c];
-          Lanes4* node = reinterpret_cast<Lanes4*>(row + 4 * c);
-          *node += w * (pab + float(c) * dc);
-          if constexpr (kFlip) {
+        Lanes16 r;
+        std::memcpy(&r, row, sizeof(r));
+        r += (wab * wz) * pab;
+        std::memcpy(row, &r, sizeof(r));
+        if constexpr (kFlip) {
+          for (int c = 0; c < 3; ++c) {
+            const float w = wab * s.w[2][c];
             float* frow = fbuf->d[HaloBuffer<4>::index(h.x() + a, h.y() + bb, h.z() + c)];
             frow[1] += w * m * set.v[i].x();
             frow[2] += w * m * set.v[i].y();
@@ -331,6 +352,9 @@ G2PStats gatherSet(ParticleSet& set, size_t s, const GridLayout& layout,
   {
     HaloBuffer<4> buf;
     HaloBuffer<4> fbuf;
+    // The node past the halo, which rows' reads reach: zero, never filled.
+    std::memset(buf.d[kHaloNodes], 0, sizeof(buf.d[kHaloNodes]));
+    std::memset(fbuf.d[kHaloNodes], 0, sizeof(fbuf.d[kHaloNodes]));
 #pragma omp for schedule(dynamic, 1)
     for (int64_t pb = 0; pb < static_cast<int64_t>(layout.particleBlocks()); ++pb) {
       if (off[pb] == off[pb + 1] || layout.sleeping(size_t(pb))) continue;
