@@ -79,6 +79,8 @@ int runScene(const RunOptions& options_in) {
   rec.threads = omp_get_max_threads();
   const char* policy = std::getenv("OMP_WAIT_POLICY");
   rec.omp_wait_policy = policy ? policy : "";
+  const char* spin = std::getenv("GOMP_SPINCOUNT");
+  rec.omp_spin_count = spin ? spin : "";
 
   // Load and build everything before any simulation work: bad input exits 2.
   SceneDesc scene;

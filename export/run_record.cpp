@@ -26,6 +26,7 @@ void writeRunRecord(const std::string& path, const RunRecord& rec) {
   j["ended_utc"] = rec.ended_utc;
   j["threads"] = rec.threads;
   j["omp_wait_policy"] = rec.omp_wait_policy;
+  if (!rec.omp_spin_count.empty()) j["omp_spin_count"] = rec.omp_spin_count;
   j["output_overlap"] = rec.output_overlap;
   if (rec.mpi_ranks > 0)
     j["mpi"] = {{"ranks", rec.mpi_ranks},

@@ -14,6 +14,7 @@ struct RunRecord {
   std::string scene_hash;  // "fnv1a64:<hex>" of the scene file's bytes
   int threads = 1;
   std::string omp_wait_policy;  // as the OpenMP runtime was started with
+  std::string omp_spin_count;   // GOMP_SPINCOUNT as started with; empty: the runtime's own
   bool output_overlap = false;  // frames written on their own thread while the next steps
   size_t particles = 0;  // now (sources and sinks change it)
   std::vector<std::pair<std::string, size_t>> object_particles;  // in scene order, at t = 0
