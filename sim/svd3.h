@@ -559,6 +559,36 @@ Mat3<T> polarRotation(const Mat3<T>& F) {
   return U * V.transpose();
 }
 
+namespace svd3_detail {
+// Eight doubles, GCC's vector extension: one AVX-512 register, two AVX
+// ones, four SSE ones. A loop over plain arrays with `omp simd` stayed
+// scalar (GCC 12 did not vectorize its square roots and inner sums).
+#if defined(__GNUC__)
+typedef double PackD __attribute__((vector_size(64)));
+// In place, and the lane maximum by reference: a 64-byte vector passed or
+// returned by value changes the ABI where AVX-512 is off (GCC's -Wpsabi).
+TRIAD_SVD3_INLINE void sqrtInPlace(PackD& x) {
+#if defined(__AVX512F__)
+  x = (PackD)_mm512_maskz_sqrt_pd(
+      0xFF, (__m512d)x);  // maskz: _mm512_sqrt_pd warns (-Wmaybe-uninitialized)
+#elif defined(__AVX__)
+  __m256d h[2];
+  std::memcpy(h, &x, sizeof(x));
+  h[0] = _mm256_sqrt_pd(h[0]);
+  h[1] = _mm256_sqrt_pd(h[1]);
+  std::memcpy(&x, h, sizeof(x));
+#else
+  for (int l = 0; l < 8; ++l) x[l] = std::sqrt(x[l]);
+#endif
+}
+TRIAD_SVD3_INLINE double laneMax(const PackD& a) {
+  double m = a[0];
+  for (int l = 1; l < 8; ++l) m = a[l] > m ? a[l] : m;
+  return m;
+}
+#endif
+}  // namespace svd3_detail
+
 // polarRotation<double> of F[0..n) into R[0..n) (may alias F), eight
 // matrices at a time across vector lanes: the same scaled Newton iteration,
 // whose dependent chain (cofactors, a determinant, a division, the next
@@ -569,58 +599,67 @@ Mat3<T> polarRotation(const Mat3<T>& F) {
 // single call's SVD.
 inline void polarRotationBatch(int n, const Mat3d* F, Mat3d* R) {
   constexpr int L = 8;
+#if defined(__GNUC__)
+  using svd3_detail::PackD;
   for (int b = 0; b < n; b += L) {
     const int count = n - b < L ? n - b : L;
-    alignas(64) double x[9][L], c[9][L], change[L], g[L];
-    bool direct[L], scaled = true;
+    alignas(64) double in[9][L];
+    bool direct[L];
     for (int l = 0; l < L; ++l) {
       const Mat3d& A = F[b + (l < count ? l : 0)];
       const double scale = A.norm();
       direct[l] = l < count && A.determinant() > 1e-3 * scale * scale * scale;
-      for (int e = 0; e < 9; ++e) x[e][l] = direct[l] ? A.data()[e] : (e % 4 == 0 ? 1.0 : 0.0);
+      for (int e = 0; e < 9; ++e) in[e][l] = direct[l] ? A.data()[e] : (e % 4 == 0 ? 1.0 : 0.0);
     }
+    PackD x[9];
+    std::memcpy(x, in, sizeof(x));
+    bool scaled = true;
     for (int it = 0; it < 20; ++it) {
       // Column-major: x[3 j + i] is X(i, j); cof's columns are crosses of X's.
-#pragma omp simd
-      for (int l = 0; l < L; ++l) {
-        c[0][l] = x[4][l] * x[8][l] - x[5][l] * x[7][l];
-        c[1][l] = x[5][l] * x[6][l] - x[3][l] * x[8][l];
-        c[2][l] = x[3][l] * x[7][l] - x[4][l] * x[6][l];
-        c[3][l] = x[7][l] * x[2][l] - x[8][l] * x[1][l];
-        c[4][l] = x[8][l] * x[0][l] - x[6][l] * x[2][l];
-        c[5][l] = x[6][l] * x[1][l] - x[7][l] * x[0][l];
-        c[6][l] = x[1][l] * x[5][l] - x[2][l] * x[4][l];
-        c[7][l] = x[2][l] * x[3][l] - x[0][l] * x[5][l];
-        c[8][l] = x[0][l] * x[4][l] - x[1][l] * x[3][l];
-        const double inv_det = 1.0 / (x[0][l] * c[0][l] + x[1][l] * c[1][l] + x[2][l] * c[2][l]);
-        double xx = 0.0, cc = 0.0;
-        for (int e = 0; e < 9; ++e) {
-          c[e][l] *= inv_det;
-          xx += x[e][l] * x[e][l];
-          cc += c[e][l] * c[e][l];
-        }
-        g[l] = scaled ? std::sqrt(std::sqrt(cc / xx)) : 1.0;
-        double d2 = 0.0;
-        for (int e = 0; e < 9; ++e) {
-          const double next = 0.5 * g[l] * x[e][l] + (0.5 / g[l]) * c[e][l];
-          d2 += (next - x[e][l]) * (next - x[e][l]);
-          x[e][l] = next;
-        }
-        change[l] = d2;
+      PackD c[9];
+      c[0] = x[4] * x[8] - x[5] * x[7];
+      c[1] = x[5] * x[6] - x[3] * x[8];
+      c[2] = x[3] * x[7] - x[4] * x[6];
+      c[3] = x[7] * x[2] - x[8] * x[1];
+      c[4] = x[8] * x[0] - x[6] * x[2];
+      c[5] = x[6] * x[1] - x[7] * x[0];
+      c[6] = x[1] * x[5] - x[2] * x[4];
+      c[7] = x[2] * x[3] - x[0] * x[5];
+      c[8] = x[0] * x[4] - x[1] * x[3];
+      const PackD inv_det = 1.0 / (x[0] * c[0] + x[1] * c[1] + x[2] * c[2]);
+      for (int e = 0; e < 9; ++e) c[e] *= inv_det;
+      PackD half_g = PackD{} + 0.5, half_inv_g = PackD{} + 0.5;
+      if (scaled) {
+        PackD xx = x[0] * x[0], cc = c[0] * c[0];
+        for (int e = 1; e < 9; ++e) xx += x[e] * x[e], cc += c[e] * c[e];
+        PackD g = cc / xx;
+        svd3_detail::sqrtInPlace(g);
+        svd3_detail::sqrtInPlace(g);
+        half_g = 0.5 * g;
+        half_inv_g = 0.5 / g;
       }
-      double worst = 0.0;
-      for (int l = 0; l < L; ++l) worst = change[l] > worst ? change[l] : worst;
+      PackD d2 = PackD{};
+      for (int e = 0; e < 9; ++e) {
+        const PackD next = half_g * x[e] + half_inv_g * c[e];
+        d2 += (next - x[e]) * (next - x[e]);
+        x[e] = next;
+      }
+      const double worst = svd3_detail::laneMax(d2);
       if (worst < 1e-14) break;
       if (worst < 1e-4) scaled = false;
     }
+    std::memcpy(in, x, sizeof(x));
     for (int l = 0; l < count; ++l) {
       if (!direct[l]) {
         R[b + l] = polarRotation(F[b + l]);
         continue;
       }
-      for (int e = 0; e < 9; ++e) R[b + l].data()[e] = x[e][l];
+      for (int e = 0; e < 9; ++e) R[b + l].data()[e] = in[e][l];
     }
   }
+#else
+  for (int k = 0; k < n; ++k) R[k] = polarRotation(F[k]);
+#endif
 }
 
 // svd3<float> of F[0..n) into U[0..n), sigma[0..n), V[0..n): the same
