@@ -589,33 +589,44 @@ TRIAD_SVD3_INLINE double laneMax(const PackD& a) {
 #endif
 }  // namespace svd3_detail
 
-// polarRotation<double> of F[0..n) into R[0..n) (may alias F), eight
-// matrices at a time across vector lanes: the same scaled Newton iteration,
-// whose dependent chain (cofactors, a determinant, a division, the next
-// iterate) left one matrix's core idle most of the time. A batch iterates
-// until all its lanes have converged, so a lane may take a step more than
-// it would alone: results agree with polarRotation to rounding (about
-// 1e-15), not bit for bit. Nearly singular or inverted F go through the
-// single call's SVD.
-inline void polarRotationBatch(int n, const Mat3d* F, Mat3d* R) {
-  constexpr int L = 8;
 #if defined(__GNUC__)
+// The polar rotation of double F[0..n), eight matrices at a time across
+// vector lanes, with the lanes handed on: for each pass over up to eight
+// matrices from F[b], fn(b, count, f, r) receives F and R as nine lane
+// vectors each, column-major (entry (i, j) at [3 j + i], as Eigen stores
+// them), so that a caller's formula in F and R runs across the lanes too.
+// The scaled Newton iteration of polarRotation, whose dependent chain
+// (cofactors, a determinant, a division, the next iterate) left one
+// matrix's core idle most of the time. A pass iterates until all its
+// lanes have converged, so a lane may take a step more than it would
+// alone: R agrees with polarRotation to rounding (about 1e-15), not bit
+// for bit. Nearly singular or inverted F take the single call's SVD.
+template <class Fn>
+inline void polarRotationLanes(int n, const Mat3d* F, Fn&& fn) {
   using svd3_detail::PackD;
+  constexpr int L = 8;
   for (int b = 0; b < n; b += L) {
     const int count = n - b < L ? n - b : L;
-    alignas(64) double in[9][L];
-    bool direct[L];
+    alignas(64) double in[9][L], start[9][L];
+    bool direct[L], all_direct = true;
     for (int l = 0; l < L; ++l) {
       const Mat3d& A = F[b + (l < count ? l : 0)];
       const double scale = A.norm();
-      direct[l] = l < count && A.determinant() > 1e-3 * scale * scale * scale;
-      for (int e = 0; e < 9; ++e) in[e][l] = direct[l] ? A.data()[e] : (e % 4 == 0 ? 1.0 : 0.0);
+      // Lanes past count iterate from the identity, as the fallback's do.
+      const bool pad = l >= count;
+      direct[l] = pad || A.determinant() > 1e-3 * scale * scale * scale;
+      all_direct &= direct[l];
+      for (int e = 0; e < 9; ++e) {
+        in[e][l] = A.data()[e];
+        start[e][l] = direct[l] && !pad ? A.data()[e] : (e % 4 == 0 ? 1.0 : 0.0);
+      }
     }
-    PackD x[9];
-    std::memcpy(x, in, sizeof(x));
+    PackD f[9], x[9];
+    std::memcpy(f, in, sizeof(f));
+    std::memcpy(x, start, sizeof(x));
     bool scaled = true;
     for (int it = 0; it < 20; ++it) {
-      // Column-major: x[3 j + i] is X(i, j); cof's columns are crosses of X's.
+      // x[3 j + i] is X(i, j); cof's columns are crosses of X's.
       PackD c[9];
       c[0] = x[4] * x[8] - x[5] * x[7];
       c[1] = x[5] * x[6] - x[3] * x[8];
@@ -648,15 +659,32 @@ inline void polarRotationBatch(int n, const Mat3d* F, Mat3d* R) {
       if (worst < 1e-14) break;
       if (worst < 1e-4) scaled = false;
     }
-    std::memcpy(in, x, sizeof(x));
-    for (int l = 0; l < count; ++l) {
-      if (!direct[l]) {
-        R[b + l] = polarRotation(F[b + l]);
-        continue;
+    if (!all_direct) {
+      // The lanes the iteration could not take: the SVD's rotation.
+      std::memcpy(start, x, sizeof(x));
+      for (int l = 0; l < count; ++l) {
+        if (direct[l]) continue;
+        const Mat3d Rl = polarRotation(F[b + l]);
+        for (int e = 0; e < 9; ++e) start[e][l] = Rl.data()[e];
       }
-      for (int e = 0; e < 9; ++e) R[b + l].data()[e] = in[e][l];
+      std::memcpy(x, start, sizeof(x));
     }
+    fn(b, count, f, x);
   }
+}
+#endif
+
+// polarRotation<double> of F[0..n) into R[0..n) (may alias F), eight
+// matrices at a time across vector lanes (polarRotationLanes).
+inline void polarRotationBatch(int n, const Mat3d* F, Mat3d* R) {
+#if defined(__GNUC__)
+  polarRotationLanes(
+      n, F, [&](int b, int count, const svd3_detail::PackD(&)[9], const svd3_detail::PackD(&r)[9]) {
+        alignas(64) double out[9][8];
+        std::memcpy(out, r, sizeof(out));
+        for (int l = 0; l < count; ++l)
+          for (int e = 0; e < 9; ++e) R[b + l].data()[e] = out[e][l];
+      });
 #else
   for (int k = 0; k < n; ++k) R[k] = polarRotation(F[k]);
 #endif

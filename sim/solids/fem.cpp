@@ -68,6 +68,62 @@ double FemBody::totalMass() const {
 
 namespace {
 
+#if defined(__GNUC__)
+// H = -V P Dm^-T of every fixed-corotated element, P = 2 mu (F - R) +
+// lambda (J - 1) cof(F) (FixedCorotated::firstPiola), eight elements at a
+// time in the polar rotation's vector lanes. Column-major lanes: [3 j + i]
+// is entry (i, j).
+void fixedCorotatedForces(const FemBody& b, const FixedCorotated<double>& mat,
+                          const std::vector<Vec3d>& y) {
+  using svd3_detail::PackD;
+  constexpr int64_t kChunk = 64;
+  const auto& tets = b.mesh.tets;
+  const int64_t chunks = (int64_t(tets.size()) + kChunk - 1) / kChunk;
+#pragma omp parallel for schedule(static) if (tets.size() > 512)
+  for (int64_t k = 0; k < chunks; ++k) {
+    const int64_t t0 = k * kChunk, t1 = std::min(int64_t(tets.size()), t0 + kChunk);
+    Mat3d Fs[kChunk];
+    for (int64_t t = t0; t < t1; ++t) Fs[t - t0] = edges(y, tets[t]) * b.dm_inv[t];
+    polarRotationLanes(
+        int(t1 - t0), Fs, [&](int s, int count, const PackD(&f)[9], const PackD(&r)[9]) {
+          alignas(64) double lanes[9][8];
+          double minus_v[8];
+          for (int l = 0; l < 8; ++l) {
+            const int64_t t = t0 + s + (l < count ? l : 0);
+            minus_v[l] = -b.volume[size_t(t)];
+            for (int e = 0; e < 9; ++e) lanes[e][l] = b.dm_inv[size_t(t)].data()[e];
+          }
+          PackD d[9], mv;
+          std::memcpy(d, lanes, sizeof(d));
+          std::memcpy(&mv, minus_v, sizeof(mv));
+          // cof(F), column-major, and J along its first column.
+          PackD c[9];
+          c[0] = f[4] * f[8] - f[5] * f[7];
+          c[1] = f[5] * f[6] - f[3] * f[8];
+          c[2] = f[3] * f[7] - f[4] * f[6];
+          c[3] = f[7] * f[2] - f[8] * f[1];
+          c[4] = f[8] * f[0] - f[6] * f[2];
+          c[5] = f[6] * f[1] - f[7] * f[0];
+          c[6] = f[1] * f[5] - f[2] * f[4];
+          c[7] = f[2] * f[3] - f[0] * f[5];
+          c[8] = f[0] * f[4] - f[1] * f[3];
+          const PackD J = f[0] * c[0] + f[1] * c[1] + f[2] * c[2];
+          const PackD volumetric = mat.lambda * (J - 1.0);
+          PackD P[9];
+          for (int e = 0; e < 9; ++e) P[e] = 2.0 * mat.mu * (f[e] - r[e]) + volumetric * c[e];
+          // H(i, k) = -V sum_j P(i, j) Dm^-1(k, j).
+          PackD H[9];
+          for (int kk = 0; kk < 3; ++kk)
+            for (int i = 0; i < 3; ++i)
+              H[3 * kk + i] = mv * (P[i] * d[kk] + P[3 + i] * d[3 + kk] + P[6 + i] * d[6 + kk]);
+          std::memcpy(lanes, H, sizeof(H));
+          for (int l = 0; l < count; ++l)
+            for (int e = 0; e < 9; ++e) b.h_[size_t(t0 + s + l)].data()[e] = lanes[e][l];
+        });
+  }
+}
+#endif
+
 // Element stresses in parallel (the polar decomposition is the cost), then
 // a serial scatter in element order: the same sums on any number of
 // threads. With velocities, each element adds the Kelvin-Voigt stress
@@ -81,6 +137,17 @@ void elementForces(const FemBody& b, const std::vector<Vec3d>& y, const std::vec
   std::visit(
       [&](const auto& mat) {
         using Model = std::decay_t<decltype(mat)>;
+        // Fixed-corotated elements without damping (the common case), eight
+        // at a time: the polar rotation and then P and H = -V P Dm^-T
+        // across vector lanes.
+        if constexpr (std::is_same_v<Model, FixedCorotated<double>>) {
+#if defined(__GNUC__)
+          if (!vel) {
+            fixedCorotatedForces(b, mat, y);
+            return;
+          }
+#endif
+        }
         // Fixed-corotated elements in chunks: their polar rotations go
         // through the batched Newton iteration, eight at a time.
         constexpr int64_t kChunk = std::is_same_v<Model, FixedCorotated<double>> ? 64 : 1;
