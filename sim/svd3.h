@@ -411,6 +411,23 @@ inline float laneMax(Pack x) {
   return m;
 }
 
+// The cofactor matrix of a 3x3 matrix held as nine lane vectors, in the
+// same layout as x (row- or column-major alike: cof(X^T) = cof(X)^T);
+// each of cof's rows (columns) is the cross of the other two rows
+// (columns) of X.
+template <class V>
+TRIAD_SVD3_INLINE void cofactorLanes(const V (&x)[9], V (&c)[9]) {
+  c[0] = x[4] * x[8] - x[5] * x[7];
+  c[1] = x[5] * x[6] - x[3] * x[8];
+  c[2] = x[3] * x[7] - x[4] * x[6];
+  c[3] = x[7] * x[2] - x[8] * x[1];
+  c[4] = x[8] * x[0] - x[6] * x[2];
+  c[5] = x[6] * x[1] - x[7] * x[0];
+  c[6] = x[1] * x[5] - x[2] * x[4];
+  c[7] = x[2] * x[3] - x[0] * x[5];
+  c[8] = x[0] * x[4] - x[1] * x[3];
+}
+
 // Steps of newtonPolar before it gives a batch to the SVD.
 constexpr int kNewtonSteps = 12;
 
@@ -433,17 +450,9 @@ TRIAD_SVD3_INLINE bool newtonPolar(const Pack (&f)[9], Pack (&x)[9]) {
   for (int k = 0; k < 9; ++k) x[k] = f[k];
   bool scaled = true;
   for (int it = 0; it < kNewtonSteps; ++it) {
-    // Row-major: X^-T = cof(X) / det X, cof's rows the crosses of X's rows.
+    // X^-T = cof(X) / det X.
     Pack c[9];
-    c[0] = x[4] * x[8] - x[5] * x[7];
-    c[1] = x[5] * x[6] - x[3] * x[8];
-    c[2] = x[3] * x[7] - x[4] * x[6];
-    c[3] = x[7] * x[2] - x[8] * x[1];
-    c[4] = x[8] * x[0] - x[6] * x[2];
-    c[5] = x[6] * x[1] - x[7] * x[0];
-    c[6] = x[1] * x[5] - x[2] * x[4];
-    c[7] = x[2] * x[3] - x[0] * x[5];
-    c[8] = x[0] * x[4] - x[1] * x[3];
+    cofactorLanes(x, c);
     const Pack inv_det = 1.0f / (x[0] * c[0] + x[1] * c[1] + x[2] * c[2]);
     Pack half_g = splat<Pack>(0.5f), half_inv_g = splat<Pack>(0.5f);
     for (int k = 0; k < 9; ++k) c[k] *= inv_det;
@@ -626,17 +635,8 @@ inline void polarRotationLanes(int n, const Mat3d* F, Fn&& fn) {
     std::memcpy(x, start, sizeof(x));
     bool scaled = true;
     for (int it = 0; it < 20; ++it) {
-      // x[3 j + i] is X(i, j); cof's columns are crosses of X's.
       PackD c[9];
-      c[0] = x[4] * x[8] - x[5] * x[7];
-      c[1] = x[5] * x[6] - x[3] * x[8];
-      c[2] = x[3] * x[7] - x[4] * x[6];
-      c[3] = x[7] * x[2] - x[8] * x[1];
-      c[4] = x[8] * x[0] - x[6] * x[2];
-      c[5] = x[6] * x[1] - x[7] * x[0];
-      c[6] = x[1] * x[5] - x[2] * x[4];
-      c[7] = x[2] * x[3] - x[0] * x[5];
-      c[8] = x[0] * x[4] - x[1] * x[3];
+      svd3_detail::cofactorLanes(x, c);
       const PackD inv_det = 1.0 / (x[0] * c[0] + x[1] * c[1] + x[2] * c[2]);
       for (int e = 0; e < 9; ++e) c[e] *= inv_det;
       PackD half_g = PackD{} + 0.5, half_inv_g = PackD{} + 0.5;

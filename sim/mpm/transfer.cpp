@@ -88,11 +88,10 @@ typedef float Lanes4 __attribute__((vector_size(16), may_alias));
 typedef float Lanes16 __attribute__((vector_size(64)));
 
 // A halo row's four nodes from node p on (the buffer holds one node past
-// its last row for this read).
-[[gnu::always_inline]] inline Lanes16 loadRow(const float* p) {
-  Lanes16 r;
+// its last row for this read). Through a reference: a 64-byte vector
+// returned by value changes the ABI where AVX-512 is off (-Wpsabi).
+[[gnu::always_inline]] inline void loadRow(const float* p, Lanes16& r) {
   std::memcpy(&r, p, sizeof(r));
-  return r;
 }
 
 // Node c's four channels of a row's sum.
@@ -122,11 +121,16 @@ template <bool kFlip>
 #pragma GCC unroll 3
     for (int b = 0; b < 3; ++b) {
       const int row = HaloBuffer<4>::index(h.x() + a, h.y() + b, h.z());
-      const Lanes16 n = loadRow(buf.d[row]);
+      Lanes16 n;
+      loadRow(buf.d[row], n);
       const float wb = st.w[1][b];
       Ga += wb * n;
       GYa += (wb * (float(b) - st.fx[1])) * n;
-      if constexpr (kFlip) FGa += wb * loadRow(fbuf->d[row]);
+      if constexpr (kFlip) {
+        Lanes16 f;
+        loadRow(fbuf->d[row], f);
+        FGa += wb * f;
+      }
     }
     const float wa = st.w[0][a];
     G += wa * Ga;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <type_traits>
 
 #include "sim/errors.h"
@@ -98,15 +99,7 @@ void fixedCorotatedForces(const FemBody& b, const FixedCorotated<double>& mat,
           std::memcpy(&mv, minus_v, sizeof(mv));
           // cof(F), column-major, and J along its first column.
           PackD c[9];
-          c[0] = f[4] * f[8] - f[5] * f[7];
-          c[1] = f[5] * f[6] - f[3] * f[8];
-          c[2] = f[3] * f[7] - f[4] * f[6];
-          c[3] = f[7] * f[2] - f[8] * f[1];
-          c[4] = f[8] * f[0] - f[6] * f[2];
-          c[5] = f[6] * f[1] - f[7] * f[0];
-          c[6] = f[1] * f[5] - f[2] * f[4];
-          c[7] = f[2] * f[3] - f[0] * f[5];
-          c[8] = f[0] * f[4] - f[1] * f[3];
+          svd3_detail::cofactorLanes(f, c);
           const PackD J = f[0] * c[0] + f[1] * c[1] + f[2] * c[2];
           const PackD volumetric = mat.lambda * (J - 1.0);
           PackD P[9];
