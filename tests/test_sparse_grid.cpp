@@ -166,6 +166,78 @@ TEST(SparseGrid, ReorderThroughTheGridsBufferMatchesItsOwnScratch) {
   }
 }
 
+// Between steps few particles change block. A binner that saw the last step
+// copies only the span of particles that move and keeps the grid blocks it
+// built while the particle blocks stay the same: the outcome must be that
+// of a binner seeing the particles for the first time.
+TEST(SparseGrid, RebinningAfterFewMovesMatchesAFreshBinning) {
+  std::vector<ParticleSet> sets = {
+      randomSet(3000, 1, -0.13f, 0.21f, FixedCorotated<float>{10.0f, 10.0f}),
+      randomSet(2000, 2, 0.05f, 0.4f, Water<float>{1e3f, 7.0f, 0.0f})};
+  for (ParticleSet& set : sets)
+    for (size_t i = 0; i < set.F.size(); ++i) set.F[i](0, 1) = float(i);  // tell rows apart
+  const Vec3f origin = Vec3f::Constant(-0.5f + 0.005f);
+  GridLayout kept;
+  Binner binner;
+  binner.bin(sets, origin, 100.0f, kept);
+  auto key = [&](const Vec3f& x) {
+    const Vec3i n = baseNode(x, origin, 100.0f);
+    return packBlock(Vec3i(blockOf(n.x()), blockOf(n.y()), blockOf(n.z())));
+  };
+  auto expectFresh = [&](const char* what) {
+    const std::vector<ParticleSet> before = sets;
+    std::vector<ParticleSet> copy = sets;
+    binner.bin(sets, origin, 100.0f, kept);
+    GridLayout fresh;
+    Binner{}.bin(copy, origin, 100.0f, fresh);
+    EXPECT_EQ(kept.particle_keys, fresh.particle_keys) << what;
+    EXPECT_EQ(kept.grid_keys, fresh.grid_keys) << what;
+    EXPECT_EQ(kept.neighbours, fresh.neighbours) << what;
+    EXPECT_EQ(kept.colour_blocks, fresh.colour_blocks) << what;
+    EXPECT_EQ(kept.offsets, fresh.offsets) << what;
+    // Every particle keeps all of its attributes, found by id in the sets
+    // as they were before the binning, and the sets end sorted by block.
+    for (size_t k = 0; k < sets.size(); ++k) {
+      const ParticleSet& a = sets[k];
+      const ParticleSet& b = before[k];
+      ASSERT_EQ(a.size(), b.size());
+      for (size_t i = 0; i < a.size(); ++i) {
+        const size_t j = size_t(std::find(b.id.begin(), b.id.end(), a.id[i]) - b.id.begin());
+        ASSERT_LT(j, a.size()) << what;
+        ASSERT_EQ(a.x[i], b.x[j]) << what;
+        ASSERT_EQ(a.v[i], b.v[j]) << what;
+        ASSERT_EQ(a.C[i], b.C[j]) << what;
+        if (!a.F.empty()) ASSERT_EQ(a.F[i], b.F[j]) << what;
+        if (!a.J.empty()) ASSERT_EQ(a.J[i], b.J[j]) << what;
+        if (i > 0) ASSERT_LE(key(a.x[i - 1]), key(a.x[i])) << what;
+      }
+    }
+  };
+  // Solids' blocks join the layout between binnings; the next binning
+  // starts again from the particles.
+  addGridBlocks(kept, {packBlock(Vec3i(40, 40, 40))});
+  // Every particle moves a little, none leaves its block: nothing to copy.
+  for (ParticleSet& set : sets)
+    for (Vec3f& x : set.x) {
+      const Vec3f s = (x - origin) * 100.0f;
+      const Vec3f f = s.array().floor();
+      const Vec3f b = (f.array() / 4.0f).floor() * 4.0f;
+      x = origin + ((s.array() + 1e-3f).min(b.array() + 3.999f)).matrix() / 100.0f;
+    }
+  expectFresh("moves within blocks");
+  // Three particles in the middle of the first set to other present blocks.
+  ParticleSet& first = sets[0];
+  for (size_t i : {size_t(1000), size_t(1001), size_t(2000)}) first.x[i] = first.x[i + 700];
+  expectFresh("three particles change block");
+  // One particle into a block of its own: the particle blocks change.
+  first.x[1500] = Vec3f(-0.4f, -0.4f, -0.4f);
+  expectFresh("a new block");
+  // And the last one back out of it.
+  first.x[std::find(first.id.begin(), first.id.end(), 100000u + 1500u) - first.id.begin()] =
+      first.x[0];
+  expectFresh("the new block emptied");
+}
+
 TEST(SparseGrid, MemoryFollowsParticlesNotDomain) {
   // The same cluster of particles in a small and in a huge domain gives the
   // same number of grid blocks.

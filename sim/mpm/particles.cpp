@@ -14,23 +14,25 @@ namespace {
 constexpr size_t kParallelCopy = 32768;
 
 template <class T>
-void permuteArray(std::vector<T>& a, const std::vector<uint32_t>& src, unsigned char* tmp) {
+void permuteArray(std::vector<T>& a, const std::vector<uint32_t>& src, unsigned char* tmp,
+                  size_t begin, size_t end) {
   if (a.empty()) return;
   constexpr size_t kSlice = sizeof(T) % 12 == 0 ? 12 : sizeof(T);
   static_assert(kSlice <= ParticleSet::kPermuteScratch);
-  const size_t n = a.size();
   unsigned char* base = reinterpret_cast<unsigned char*>(a.data());
   // Below this many particles a loop takes less than waking the other
   // threads for it (ten such loops a step: a draft-size scene's binning
   // was mostly wake-ups).
-  const bool parallel = n > kParallelCopy;
+  const bool parallel = end - begin > kParallelCopy;
+  const auto b = static_cast<int64_t>(begin), e = static_cast<int64_t>(end);
   for (size_t at = 0; at < sizeof(T); at += kSlice) {
 #pragma omp parallel for schedule(static) if (parallel)
-    for (int64_t i = 0; i < static_cast<int64_t>(n); ++i)
-      std::memcpy(tmp + size_t(i) * kSlice, base + size_t(src[size_t(i)]) * sizeof(T) + at, kSlice);
+    for (int64_t i = b; i < e; ++i)
+      std::memcpy(tmp + size_t(i - b) * kSlice, base + size_t(src[size_t(i)]) * sizeof(T) + at,
+                  kSlice);
 #pragma omp parallel for schedule(static) if (parallel)
-    for (int64_t i = 0; i < static_cast<int64_t>(n); ++i)
-      std::memcpy(base + size_t(i) * sizeof(T) + at, tmp + size_t(i) * kSlice, kSlice);
+    for (int64_t i = b; i < e; ++i)
+      std::memcpy(base + size_t(i) * sizeof(T) + at, tmp + size_t(i - b) * kSlice, kSlice);
   }
 }
 
@@ -81,13 +83,19 @@ float ParticleSet::volumeRatio(size_t i) const {
 }
 
 void ParticleSet::permute(const std::vector<uint32_t>& src, unsigned char* scratch) {
-  permuteArray(x, src, scratch);
-  permuteArray(v, src, scratch);
-  permuteArray(C, src, scratch);
-  permuteArray(F, src, scratch);
-  permuteArray(J, src, scratch);
-  permuteArray(id, src, scratch);
-  permuteArray(object, src, scratch);
+  // A step's sort moves few particles: only the span between the first and
+  // the last one that moves is copied (a settling pile's often is a part).
+  size_t begin = 0, end = src.size();
+  while (begin < end && src[begin] == begin) ++begin;
+  while (end > begin && src[end - 1] == end - 1) --end;
+  if (begin == end) return;
+  permuteArray(x, src, scratch, begin, end);
+  permuteArray(v, src, scratch, begin, end);
+  permuteArray(C, src, scratch, begin, end);
+  permuteArray(F, src, scratch, begin, end);
+  permuteArray(J, src, scratch, begin, end);
+  permuteArray(id, src, scratch, begin, end);
+  permuteArray(object, src, scratch, begin, end);
 }
 
 namespace {

@@ -49,8 +49,11 @@ size_t Binner::bytes() const {
   size_t runs = 0;
   for (const auto& r : runs_) runs += r.capacity();
   for (const auto& r : chunk_runs_) runs += r.capacity();
+  size_t colours = 0;
+  for (const auto& c : colour_blocks_) colours += c.capacity() * 4;
   return src_.capacity() * 4 + scratch_.capacity() * sizeof(GridNode) + run_keys_.capacity() * 8 +
-         runs * sizeof(Run);
+         runs * sizeof(Run) + (grid_for_.capacity() + grid_keys_.capacity()) * 8 +
+         neighbours_.capacity() * sizeof(neighbours_[0]) + colours;
 }
 
 void Binner::bin(std::vector<ParticleSet>& sets, const Vec3f& shifted_origin, float inv_dx,
@@ -85,8 +88,21 @@ void Binner::bin(std::vector<ParticleSet>& sets, const Vec3f& shifted_origin, fl
     for (int64_t c = 0; c < static_cast<int64_t>(chunks.size()); ++c) {
       std::vector<Run>& out = chunk_runs_[c];
       out.clear();
+      // A particle in the run's block extends the run: for an integer lo,
+      // floor(s) >= lo iff s >= lo, so comparing the shifted coordinates with
+      // the block's bounds gives the key's answer without the floors.
+      Vec3f lo = Vec3f::Constant(1.0f), hi = Vec3f::Constant(0.0f);  // empty
       for (size_t i = chunks[c].first; i < chunks[c].second; ++i) {
+        Vec3f sx;
+        for (int d = 0; d < 3; ++d) sx[d] = shiftedCoord(x[i][d], shifted_origin[d], inv_dx);
+        if ((sx.array() >= lo.array()).all() && (sx.array() < hi.array()).all()) {
+          out.back().end = uint32_t(i + 1);
+          continue;
+        }
         const uint64_t k = keyOf(x[i]);
+        const Vec3i b = unpackBlock(k);
+        lo = (b * kBlockSize).cast<float>();
+        hi = lo.array() + float(kBlockSize);
         if (out.empty() || out.back().key != k) out.push_back({k, uint32_t(i), uint32_t(i), 0});
         out.back().end = uint32_t(i + 1);
       }
@@ -141,6 +157,14 @@ void Binner::bin(std::vector<ParticleSet>& sets, const Vec3f& shifted_origin, fl
   }
 
   // Grid blocks: every particle block and its neighbours on the + side.
+  // Particles seldom change block; while the set of particle blocks stays
+  // the same, so does all that follows from it.
+  if (layout.particle_keys == grid_for_) {
+    layout.grid_keys = grid_keys_;
+    layout.neighbours = neighbours_;
+    layout.colour_blocks = colour_blocks_;
+    return;
+  }
   run_keys_.clear();
   run_keys_.reserve(nblocks * 8);
   for (uint64_t key : layout.particle_keys) {
@@ -163,6 +187,10 @@ void Binner::bin(std::vector<ParticleSet>& sets, const Vec3f& shifted_origin, fl
     const int colour = ((b.x() & 1) << 2) | ((b.y() & 1) << 1) | (b.z() & 1);
     layout.colour_blocks[colour].push_back(static_cast<uint32_t>(pb));
   }
+  grid_for_ = layout.particle_keys;
+  grid_keys_ = layout.grid_keys;
+  neighbours_ = layout.neighbours;
+  colour_blocks_ = layout.colour_blocks;
 }
 
 void addGridBlocks(GridLayout& layout, std::vector<uint64_t> keys) {

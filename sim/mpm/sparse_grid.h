@@ -108,6 +108,11 @@ class Binner {
   std::vector<uint32_t> src_;                 // per particle: source index of the sorted order
   std::vector<GridNode> scratch_;             // without a spare buffer
   std::vector<uint64_t> run_keys_;
+  // The grid blocks, neighbours and colours last built, and the particle
+  // blocks they were built for.
+  std::vector<uint64_t> grid_for_, grid_keys_;
+  std::vector<std::array<uint32_t, 8>> neighbours_;
+  std::array<std::vector<uint32_t>, 8> colour_blocks_;
 };
 
 // Node coordinate of x shifted down by half a cell, whose floor is the base
