@@ -207,9 +207,15 @@ TEST(SparseGrid, RebinningAfterFewMovesMatchesAFreshBinning) {
         ASSERT_EQ(a.x[i], b.x[j]) << what;
         ASSERT_EQ(a.v[i], b.v[j]) << what;
         ASSERT_EQ(a.C[i], b.C[j]) << what;
-        if (!a.F.empty()) ASSERT_EQ(a.F[i], b.F[j]) << what;
-        if (!a.J.empty()) ASSERT_EQ(a.J[i], b.J[j]) << what;
-        if (i > 0) ASSERT_LE(key(a.x[i - 1]), key(a.x[i])) << what;
+        if (!a.F.empty()) {
+          ASSERT_EQ(a.F[i], b.F[j]) << what;
+        }
+        if (!a.J.empty()) {
+          ASSERT_EQ(a.J[i], b.J[j]) << what;
+        }
+        if (i > 0) {
+          ASSERT_LE(key(a.x[i - 1]), key(a.x[i])) << what;
+        }
       }
     }
   };
