@@ -461,7 +461,7 @@ void MpiDomain::sumGhosts(const GridLayout& layout, std::vector<GridNode>& grid,
   std::vector<uint8_t> colours(layout.layered_blocks, 0);
   for (int c = 0; c < 8; ++c)
     for (uint32_t pb : layout.colour_blocks[size_t(c)]) {
-      if (layout.sleeping(pb)) continue;  // sleeping blocks do not scatter
+      // Sleeping blocks scatter too: their sums at rest.
       for (uint32_t gb : layout.neighbours[pb])
         if (layout.layered[gb] >= 0) colours[size_t(layout.layered[gb])] |= uint8_t(1u << c);
     }

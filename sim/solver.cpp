@@ -139,6 +139,7 @@ void Solver::step(double dt) {
       if (flip_) domain_->returnHalo(layout_, flip_grid_);
     }
     if (solids) collideSolids();    // step 6
+    if (sleep_) wakeMovingSleepers();  // sleepers that would move gather too
     gridToParticles(fdt);           // step 7
     if (solids) pushOutOfSolids(dt);            // no particle stays inside a body
     if (!world_.sinks.empty()) drainSinks(dt);  // remove what the sinks hold
@@ -280,7 +281,8 @@ void Solver::classifySleep() {
     wake.push_back(wakeBox(b));
   }
   for (const ElasticSolid& e : world_.elastics) wake.push_back(elasticBox(e));
-  sleeping_ = sleep_->classify(layout_, wake, params_.shifted_origin, params_.inv_dx, domain_);
+  sleeping_ = sleep_->classify(layout_, wake, params_.shifted_origin, params_.inv_dx);
+  sleep_halos_.prepare(layout_);
   stillSleepingParticles(layout_, world_.sets);
 }
 
@@ -289,14 +291,20 @@ void Solver::particlesToGrid(float dt) {
   params_.dt = dt;
   max_stiffness_scale_ = triad::particlesToGrid(
       world_.sets, layout_, params_, grid_, flip_ ? &flip_grid_ : nullptr,
-      domain_ ? &layers_ : nullptr, domain_ && flip_ ? &flip_layers_ : nullptr);
+      domain_ ? &layers_ : nullptr, domain_ && flip_ ? &flip_layers_ : nullptr,
+      sleep_ ? &sleep_halos_ : nullptr);
 }
 
 void Solver::updateGrid(float dt) {
   PhaseTimer timer(times_.grid);
   triad::updateGrid(layout_, grid_, flip_ ? &flip_grid_ : nullptr, gravity_, dt, walls_);
-  freezeSleepingNodes(layout_, grid_, flip_ ? &flip_grid_ : nullptr,
-                      sleep_ && domain_ ? &sleep_->asleepEverywhere() : nullptr);
+}
+
+void Solver::wakeMovingSleepers() {
+  PhaseTimer timer(times_.g2p);
+  triad::sleepersThatWouldMove(world_.sets, layout_, params_, grid_, float(sleep_->speed()),
+                               moving_blocks_);
+  sleeping_ -= sleep_->wakeMoving(layout_, moving_blocks_, sleep_halos_);
 }
 
 void Solver::gridToParticles(float dt) {
@@ -773,7 +781,7 @@ size_t Solver::bytes() const {
     solids = coupling_->bytes() + (points_.x.capacity() + points_.v.capacity() +
                                    points_.n.capacity() + points_.dv.capacity()) * sizeof(Vec3f);
   return grid_.capacity() * sizeof(GridNode) + flip_grid_.capacity() * sizeof(GridNode) +
-         layout_.bytes() + binner_.bytes() + solids;
+         layout_.bytes() + binner_.bytes() + sleep_halos_.bytes() + solids;
 }
 
 }  // namespace triad

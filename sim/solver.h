@@ -107,6 +107,7 @@ class Solver {
   // Settled material: which blocks sleep this step (and still their
   // particles), from the blocks' still times and the moving solids.
   void classifySleep();
+  void wakeMovingSleepers();
   // Rigid bodies at rest among calm material sleep with it: held still,
   // they neither fall nor keep the material around them awake.
   void sleepBodies();
@@ -152,6 +153,8 @@ class Solver {
   // per colour (particlesToGrid).
   std::vector<GridNode> layers_, flip_layers_;
   std::unique_ptr<SleepTracker> sleep_;  // only when the scene lets material sleep
+  SleepHalos sleep_halos_;               // sleeping blocks' sums at rest
+  std::vector<uint8_t> moving_blocks_;   // sleeping blocks whose particles would move
   std::vector<float> block_speed2_;      // per particle block, from the gather
   size_t sleeping_ = 0;                  // particles asleep this step
   std::vector<uint8_t> body_asleep_;     // per rigid body, this step

@@ -556,9 +556,9 @@ TEST_F(Mpi, SigtermStopsEveryProcessAtTheSameStepAndTheRunResumes) {
 }
 
 // Sleeping material across the cut: a sand layer settles and sleeps, then
-// a ball thrown up lands on it and wakes it. Every process decides for
-// every block from all processes' still times, and holds the nodes of
-// other processes' sleeping blocks at rest: the cache is one process's.
+// a ball thrown up lands on it and wakes it. Sleeping blocks' sums at rest
+// cross the cut as any block's sums do, and each process wakes its own
+// blocks from the velocities it gets back: the cache is one process's.
 TEST_F(Mpi, SleepingMaterialSleepsAndWakesAsUnderOneProcess) {
   const fs::path dir = test::tempDir("sleep");
   json j = test::baseScene("mpi_sleep", {0.4, 1.4, 0.4}, 0.02);

@@ -10,6 +10,7 @@
 #include "sim/mpm/domain.h"
 #include "sim/mpm/grid_update.h"
 #include "sim/mpm/particles.h"
+#include "sim/mpm/sleep.h"
 #include "sim/mpm/sparse_grid.h"
 #include "sim/mpm/transfer.h"
 
@@ -418,6 +419,114 @@ TEST(SparseGrid, ScatterOfAnAffineFieldIsThatField) {
   // Float sums: measured 2.0e-7 m/s.
   EXPECT_GT(checked, 1000u);
   EXPECT_LT(worst, 1e-5);
+}
+
+// Sand at rest, some of it past its yield surface (the return mapping
+// writes F), in one sleeping or awake layout.
+struct RestingSand {
+  std::vector<ParticleSet> sets;
+  TransferParams p;
+  GridLayout layout;
+};
+
+RestingSand restingSand() {
+  RestingSand r;
+  r.sets.push_back(randomSet(4000, 3, -0.1f, 0.1f, DruckerPrager<float>(1e5f, 0.3f, 30.0f, 0.0f)));
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> u(-0.05f, 0.05f);
+  for (size_t i = 0; i < r.sets[0].size(); ++i) {
+    r.sets[0].v[i].setZero();
+    r.sets[0].C[i].setZero();
+    for (int k = 0; k < 9; ++k) r.sets[0].F[i].data()[k] += u(rng);
+  }
+  r.p.dx = 0.01f;
+  r.p.inv_dx = 100.0f;
+  r.p.shifted_origin = Vec3f::Constant(-0.5f + 0.005f);
+  r.p.dt = 2e-4f;
+  r.p.domain_lo = Vec3f::Constant(-1.0f);
+  r.p.domain_hi = Vec3f::Constant(1.0f);
+  Binner().bin(r.sets, r.p.shifted_origin, r.p.inv_dx, r.layout);
+  return r;
+}
+
+// A sleeping block scatters what its particles at rest would: the same
+// masses, and the stress's momentum scaled to each step's length, from
+// sums computed once (on copies of F: the particles' state is left as it
+// was, so that a resumed run computes the same sums).
+TEST(SleepHalos, SleepingBlocksScatterWhatTheirParticlesWouldAtRest) {
+  RestingSand asleep = restingSand();
+  const std::vector<Mat3f> F0 = asleep.sets[0].F;
+  asleep.layout.asleep.assign(asleep.layout.particleBlocks(), 1);
+  SleepHalos halos;
+  halos.prepare(asleep.layout);
+  ASSERT_EQ(halos.keys, asleep.layout.particle_keys);
+  for (const float dt : {2e-4f, 5e-5f}) {
+    RestingSand awake = restingSand();
+    awake.p.dt = asleep.p.dt = dt;
+    std::vector<GridNode> want, got;
+    particlesToGrid(awake.sets, awake.layout, awake.p, want, nullptr);
+    particlesToGrid(asleep.sets, asleep.layout, asleep.p, got, nullptr, nullptr, nullptr, &halos);
+    ASSERT_EQ(got.size(), want.size());
+    ASSERT_NE(awake.sets[0].F, F0) << "no particle was past its yield surface";
+    EXPECT_EQ(asleep.sets[0].F, F0) << "the sums at rest changed the particles' F";
+    double largest = 0.0, off = 0.0, mass = 0.0;
+    for (size_t k = 0; k < want.size(); ++k) {
+      ASSERT_EQ(got[k].m, want[k].m) << "node " << k;
+      mass += got[k].m;
+      for (int d = 0; d < 3; ++d) {
+        largest = std::max(largest, double(std::abs(want[k].v[d])));
+        off = std::max(off, double(std::abs(got[k].v[d] - want[k].v[d])));
+      }
+    }
+    std::printf("dt %.0e: largest node momentum %.3e, largest difference %.1e\n", double(dt),
+                largest, off);
+    EXPECT_GT(mass, 0.99 * 4000 * 0.01);
+    EXPECT_GT(largest, 0.0);
+    EXPECT_LT(off, 1e-5 * largest);
+  }
+  for (uint8_t f : halos.filled) EXPECT_EQ(f, 1);
+  // Kept while the blocks sleep on; a block that wakes has none.
+  std::vector<float> kept = halos.sums;
+  asleep.layout.asleep[0] = 0;
+  halos.prepare(asleep.layout);
+  EXPECT_EQ(halos.keys.size(), asleep.layout.particleBlocks() - 1);
+  EXPECT_EQ(halos.slot[0], -1);
+  EXPECT_TRUE(std::equal(halos.sums.begin(), halos.sums.end(),
+                         kept.begin() + std::ptrdiff_t(SleepHalos::kFloats)));
+}
+
+// A sleeping block wakes when one of its particles would gather a speed
+// above the threshold, and only then.
+TEST(SleepHalos, ABlockWakesWhenItsParticlesWouldMove) {
+  RestingSand r = restingSand();
+  const size_t n = r.layout.particleBlocks();
+  r.layout.asleep.assign(n, 0);
+  for (size_t pb = 0; pb < n; pb += 2) r.layout.asleep[pb] = 1;
+  std::vector<GridNode> grid(r.layout.gridBlocks() * kBlockNodes,
+                             GridNode{1.0f, {0.0f, 0.006f, 0.0f}});
+  std::vector<uint8_t> moving;
+  sleepersThatWouldMove(r.sets, r.layout, r.p, grid, 0.01f, moving);
+  ASSERT_EQ(moving.size(), n);
+  for (uint8_t m : moving) EXPECT_EQ(m, 0);
+  // One node of the first block's first particle's stencil, its heaviest.
+  const Stencil st = stencilAt(r.sets[0].x[0], r.p.shifted_origin, r.p.inv_dx);
+  const Vec3i node = st.base + Vec3i::Ones();
+  const Vec3i b(blockOf(node.x()), blockOf(node.y()), blockOf(node.z()));
+  const size_t gb =
+      size_t(std::lower_bound(r.layout.grid_keys.begin(), r.layout.grid_keys.end(), packBlock(b)) -
+             r.layout.grid_keys.begin());
+  const Vec3i in = node - b * kBlockSize;
+  grid[gb * kBlockNodes + size_t((in.x() * kBlockSize + in.y()) * kBlockSize + in.z())].v[1] = 0.1f;
+  sleepersThatWouldMove(r.sets, r.layout, r.p, grid, 0.01f, moving);
+  EXPECT_EQ(moving[0], 1);
+  size_t woken = 0;
+  for (size_t pb = 0; pb < n; ++pb) {
+    woken += moving[pb];
+    if (pb % 2) {
+      EXPECT_EQ(moving[pb], 0) << "an awake block";
+    }
+  }
+  EXPECT_LT(woken, n / 4) << "a node far from them woke blocks";
 }
 
 TEST(GridUpdate, WallsFollowTheirType) {

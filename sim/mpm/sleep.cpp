@@ -1,9 +1,7 @@
 #include "sim/mpm/sleep.h"
 
 #include <algorithm>
-#include <array>
 #include <cmath>
-#include <iterator>
 
 #include "sim/mpm/domain.h"
 #include "sim/mpm/halo.h"
@@ -12,16 +10,6 @@
 namespace triad {
 
 namespace {
-
-// Index of key in sorted keys, or -1.
-int64_t indexOf(const std::vector<uint64_t>& keys, uint64_t key) {
-  const auto it = std::lower_bound(keys.begin(), keys.end(), key);
-  return it != keys.end() && *it == key ? int64_t(it - keys.begin()) : -1;
-}
-
-bool contains(const std::vector<uint64_t>& sorted, uint64_t key) {
-  return std::binary_search(sorted.begin(), sorted.end(), key);
-}
 
 // Block coordinate of world coordinate x along one axis (as the binner files
 // a particle at x).
@@ -49,9 +37,8 @@ bool SleepTracker::calmWithin(const WakeBox& box, const Vec3f& origin, float inv
 }
 
 size_t SleepTracker::classify(GridLayout& layout, const std::vector<WakeBox>& wake,
-                              const Vec3f& origin, float inv_dx, DomainExchange* split) {
+                              const Vec3f& origin, float inv_dx) {
   const size_t nblocks = layout.particleBlocks();
-  const double delay = desc_.delay;
 
   // Carry each block's still time over. A block whose particle count
   // changed (material came in or left, a source filled it, a sink emptied
@@ -60,6 +47,7 @@ size_t SleepTracker::classify(GridLayout& layout, const std::vector<WakeBox>& wa
   for (const std::vector<uint32_t>& off : layout.offsets)
     for (size_t b = 0; b < nblocks; ++b) counts_[b] += off[b + 1] - off[b];
   still_.assign(nblocks, 0.0);
+  woken_.assign(nblocks, 0);
   for (size_t b = 0, j = 0; b < nblocks; ++b) {
     const uint64_t key = layout.particle_keys[b];
     while (j < state_.keys.size() && state_.keys[j] < key) ++j;
@@ -67,56 +55,62 @@ size_t SleepTracker::classify(GridLayout& layout, const std::vector<WakeBox>& wa
       still_[b] = state_.still[j];
   }
 
-  // Every block that holds particles now, and its still time: split over
-  // processes, every process's (each holds a run of keys, in process order).
-  struct Block {
-    uint64_t key;
-    double still;
-  };
-  std::vector<Block> now(nblocks);
-  for (size_t b = 0; b < nblocks; ++b) now[b] = {layout.particle_keys[b], still_[b]};
-  if (split) now = allGatherValues(*split, now);
-  std::vector<uint64_t> keys(now.size());
-  for (size_t b = 0; b < now.size(); ++b) keys[b] = now[b].key;
-  // Blocks that held particles and hold none now.
-  std::vector<uint64_t> gone;
-  std::set_difference(state_.keys.begin(), state_.keys.end(), keys.begin(), keys.end(),
-                      std::back_inserter(gone));
-
-  // Blocks near a moving solid stay awake.
-  std::vector<uint8_t> woken(now.size(), 0);
+  // Asleep: still for the delay, and no moving solid near.
+  layout.asleep.assign(nblocks, 0);
+  for (size_t b = 0; b < nblocks; ++b) layout.asleep[b] = still_[b] >= desc_.delay;
   for (const WakeBox& w : wake) {
     const Vec3i lo = blockOfPoint(w.lo, origin, inv_dx), hi = blockOfPoint(w.hi, origin, inv_dx);
-    for (size_t b = 0; b < now.size(); ++b) {
-      const Vec3i c = unpackBlock(now[b].key);
-      if ((c.array() >= lo.array()).all() && (c.array() <= hi.array()).all()) woken[b] = 1;
+    for (size_t b = 0; b < nblocks; ++b) {
+      const Vec3i c = unpackBlock(layout.particle_keys[b]);
+      if ((c.array() >= lo.array()).all() && (c.array() <= hi.array()).all()) layout.asleep[b] = 0;
     }
   }
-
-  // Asleep: still long enough, and so is every neighbour; none emptied.
-  asleep_keys_.clear();
-  for (size_t b = 0; b < now.size(); ++b) {
-    if (woken[b] || now[b].still < delay) continue;
-    const Vec3i c = unpackBlock(now[b].key);
-    bool calm = true;
-    for (int dx = -1; dx <= 1 && calm; ++dx)
-      for (int dy = -1; dy <= 1 && calm; ++dy)
-        for (int dz = -1; dz <= 1 && calm; ++dz) {
-          if (dx == 0 && dy == 0 && dz == 0) continue;
-          const uint64_t key = packBlock(c + Vec3i(dx, dy, dz));
-          const int64_t n = indexOf(keys, key);
-          if (n >= 0 ? now[size_t(n)].still < delay : contains(gone, key)) calm = false;
-        }
-    if (calm) asleep_keys_.push_back(now[b].key);
-  }
-  layout.asleep.assign(nblocks, 0);
   size_t sleeping = 0;
-  for (size_t b = 0; b < nblocks; ++b) {
-    if (!contains(asleep_keys_, layout.particle_keys[b])) continue;
-    layout.asleep[b] = 1;
-    sleeping += counts_[b];
-  }
+  for (size_t b = 0; b < nblocks; ++b) sleeping += layout.asleep[b] ? counts_[b] : 0;
   return sleeping;
+}
+
+size_t SleepTracker::wakeMoving(GridLayout& layout, const std::vector<uint8_t>& moving,
+                                SleepHalos& halos) {
+  size_t woken = 0;
+  for (size_t pb = 0; pb < layout.particleBlocks(); ++pb) {
+    if (!layout.sleeping(pb) || !moving[pb]) continue;
+    layout.asleep[pb] = 0;
+    woken_[pb] = 1;
+    woken += counts_[pb];
+    if (halos.slot[pb] >= 0) halos.filled[size_t(halos.slot[pb])] = 0;
+  }
+  return woken;
+}
+
+void SleepHalos::prepare(const GridLayout& layout) {
+  const size_t nblocks = layout.particleBlocks();
+  std::vector<uint64_t> now;
+  for (size_t b = 0; b < nblocks; ++b)
+    if (layout.sleeping(b)) now.push_back(layout.particle_keys[b]);
+  if (now != keys) {
+    // Carry over the sums of blocks that slept before and still do.
+    std::vector<float> s(now.size() * kFloats);
+    std::vector<uint8_t> f(now.size(), 0);
+    for (size_t i = 0, j = 0; i < now.size(); ++i) {
+      while (j < keys.size() && keys[j] < now[i]) ++j;
+      if (j == keys.size() || keys[j] != now[i] || !filled[j]) continue;
+      std::copy_n(sums.begin() + std::ptrdiff_t(j * kFloats), kFloats,
+                  s.begin() + std::ptrdiff_t(i * kFloats));
+      f[i] = 1;
+    }
+    keys = std::move(now);
+    sums = std::move(s);
+    filled = std::move(f);
+  }
+  slot.assign(nblocks, -1);
+  for (size_t b = 0, i = 0; b < nblocks; ++b)
+    if (layout.sleeping(b)) slot[b] = int32_t(i++);
+}
+
+size_t SleepHalos::bytes() const {
+  return keys.capacity() * 8 + sums.capacity() * sizeof(float) + filled.capacity() +
+         slot.capacity() * 4;
 }
 
 void SleepTracker::update(const GridLayout& layout, const std::vector<float>& speed2, double dt,
@@ -124,8 +118,10 @@ void SleepTracker::update(const GridLayout& layout, const std::vector<float>& sp
   const size_t nblocks = layout.particleBlocks();
   const float limit2 = float(desc_.speed * desc_.speed);
   for (size_t b = 0; b < nblocks; ++b) {
-    // A sleeping block is still by construction.
-    if (layout.sleeping(b) || speed2[b] < limit2)
+    // A sleeping block is still by construction; a woken one starts again.
+    if (b < woken_.size() && woken_[b])
+      still_[b] = 0.0;
+    else if (layout.sleeping(b) || speed2[b] < limit2)
       still_[b] = std::min(still_[b] + dt, 1e30);
     else
       still_[b] = 0.0;
@@ -151,40 +147,6 @@ void SleepTracker::update(const GridLayout& layout, const std::vector<float>& sp
     state_.keys[b] = all[b].key;
     state_.counts[b] = uint32_t(all[b].count);
     state_.still[b] = all[b].still;
-  }
-}
-
-void freezeSleepingNodes(const GridLayout& layout, std::vector<GridNode>& grid,
-                         std::vector<GridNode>* flip, const std::vector<uint64_t>* asleep) {
-  auto freeze = [&](size_t node) {
-    grid[node].v[0] = grid[node].v[1] = grid[node].v[2] = 0.0f;
-    if (flip) (*flip)[node].v[0] = (*flip)[node].v[1] = (*flip)[node].v[2] = 0.0f;
-  };
-  if (asleep) {
-    // Every process's sleeping blocks: the halo nodes that lie here.
-    for (const uint64_t key : *asleep) {
-      const Vec3i c = unpackBlock(key);
-      std::array<int64_t, 8> gb;
-      for (int d = 0; d < 8; ++d)
-        gb[size_t(d)] =
-            indexOf(layout.grid_keys, packBlock(c + Vec3i((d >> 2) & 1, (d >> 1) & 1, d & 1)));
-      for (int x = 0; x < kHalo; ++x)
-        for (int y = 0; y < kHalo; ++y)
-          for (int z = 0; z < kHalo; ++z) {
-            const int d = ((x >> kBlockBits) << 2) | ((y >> kBlockBits) << 1) | (z >> kBlockBits);
-            if (gb[size_t(d)] < 0) continue;
-            const int k =
-                ((x & (kBlockSize - 1)) * kBlockSize + (y & (kBlockSize - 1))) * kBlockSize +
-                (z & (kBlockSize - 1));
-            freeze(size_t(gb[size_t(d)]) * kBlockNodes + size_t(k));
-          }
-    }
-    return;
-  }
-  if (layout.asleep.empty()) return;
-  for (size_t pb = 0; pb < layout.particleBlocks(); ++pb) {
-    if (!layout.asleep[pb]) continue;
-    forHalo(layout, pb, [&](int, size_t node) { freeze(node); });
   }
 }
 

@@ -1,16 +1,21 @@
 #pragma once
 // Sleeping material: particle blocks whose material has been still for a
 // while skip the stress pass, the scatter and the gather. A sleeping block's
-// particles keep their place and deformation with zero velocity, and the
-// grid nodes its stencils reach are held at rest, so that awake material
-// next to it meets a still support, as it did before.
+// particles keep their place and deformation with zero velocity, and it
+// scatters the sums its particles gave the grid at rest (their mass, and
+// their stress's momentum per unit time step), kept from the step it fell
+// asleep: the grid then holds what it would hold with those particles
+// awake and still, so awake material beside them meets the same support,
+// mass and stress as without sleep.
 //
-// A block sleeps when it and every particle block around it (its 26
-// neighbours) have been slower than `speed` for `delay` seconds, no particle
-// entered or left any of them in the last step, and no moving solid's
-// bounds (plus a margin) reach it. Material moves less than a cell a step,
-// so motion wakes a sleeping block one step before it could reach the nodes
-// that block holds still.
+// A block sleeps when its particles have been slower than `speed` for
+// `delay` seconds, no particle entered or left it in the last step, and no
+// moving solid's bounds (plus a margin) reach it. It wakes in the step
+// where one of its particles would gather a velocity faster than `speed`
+// from the grid (after the grid update and the collision with solids), and
+// gathers in that step: moving material, a body or a wave reaching it wakes
+// it before any of its particles would have moved faster than `speed`.
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -41,6 +46,24 @@ struct SleepState {
   }
 };
 
+// The halo sums of sleeping blocks (mass, and momentum per unit time step:
+// particles at rest carry none but their stress's), kept while a block
+// sleeps. Rebuilt from the particles whenever it is missing (the block
+// just fell asleep, or the run resumed), from copies of F so that the
+// state stays as it was and a resumed run computes the same sums.
+struct SleepHalos {
+  static constexpr size_t kFloats = size_t(kHaloNodes) * 4;
+  std::vector<uint64_t> keys;   // sorted
+  std::vector<float> sums;      // kFloats per key
+  std::vector<uint8_t> filled;  // per key
+  std::vector<int32_t> slot;    // per particle block of the layout: its key's index, or -1
+
+  // Keeps the sums of the blocks that sleep in `layout` and had them, and
+  // makes room for the newly asleep.
+  void prepare(const GridLayout& layout);
+  size_t bytes() const;
+};
+
 class SleepTracker {
  public:
   explicit SleepTracker(const SleepDesc& desc) : desc_(desc) {}
@@ -48,22 +71,21 @@ class SleepTracker {
   // After binning: carries the still times over to the new blocks and fills
   // layout.asleep. Blocks touched by `wake` (world boxes) stay awake.
   // `origin`, `inv_dx`: the binner's shifted origin and inverse spacing.
-  // Returns the number of sleeping particles. Split over processes
-  // (`split`), a block's neighbours may be another process's: every
-  // process's blocks and still times are gathered first, and every process
-  // decides for all blocks alike (asleepEverywhere()).
+  // Returns the number of sleeping particles.
   size_t classify(GridLayout& layout, const std::vector<WakeBox>& wake, const Vec3f& origin,
-                  float inv_dx, DomainExchange* split = nullptr);
+                  float inv_dx);
+
+  // After the grid update and the collision: wakes every sleeping block
+  // that `moving` marks (sleepersThatWouldMove, sim/mpm/transfer.h), for
+  // the rest of the step (it gathers) and for the delay after it, and
+  // drops its sums. Returns the number of particles woken.
+  size_t wakeMoving(GridLayout& layout, const std::vector<uint8_t>& moving, SleepHalos& halos);
 
   // After the gather: `speed2` holds each awake block's largest squared
   // particle speed (sleeping blocks: anything). Advances the still times;
   // split over processes, the state kept is every process's.
   void update(const GridLayout& layout, const std::vector<float>& speed2, double dt,
               DomainExchange* split = nullptr);
-
-  // The keys of every particle block asleep in this step, sorted (on every
-  // process of a split run).
-  const std::vector<uint64_t>& asleepEverywhere() const { return asleep_keys_; }
 
   // Whether every particle block of the last step within `box` had been
   // still for the delay (blocks that a body resting there would let sleep).
@@ -83,16 +105,8 @@ class SleepTracker {
   SleepState state_;
   std::vector<double> still_;       // per block of the current layout
   std::vector<uint32_t> counts_;  // per block of the current layout
-  std::vector<uint64_t> asleep_keys_;
+  std::vector<uint8_t> woken_;    // per block of the current layout
 };
-
-// Holds the grid nodes of sleeping blocks' stencils at rest (after the grid
-// update; with FLIP, their velocity change too). Split over processes,
-// `asleep` lists every process's sleeping blocks, whose stencils may reach
-// this process's nodes.
-void freezeSleepingNodes(const GridLayout& layout, std::vector<GridNode>& grid,
-                         std::vector<GridNode>* flip,
-                         const std::vector<uint64_t>* asleep = nullptr);
 
 // Sets the velocity and affine matrix of sleeping blocks' particles to zero:
 // they stay where they are until woken, and wake from rest.

@@ -4,6 +4,7 @@
 
 #include "sim/mpm/halo.h"
 #include "sim/mpm/particles.h"
+#include "sim/mpm/sleep.h"
 
 namespace triad {
 
@@ -282,10 +283,59 @@ template <bool kFlip>
   });
 }
 
+// Sleeping block pb's halo sums into buf: its kept sums, or, where it has
+// none, those its particles give at rest with a unit time step, from
+// copies of F and J (the stress's return mapping writes them, and the
+// state must stay as it is for a resumed run to compute the same sums);
+// then the momentum scaled to the step. Its particles are at rest, so the
+// momentum is all stress, linear in the step.
+template <bool kFlip>
+void sleepingHalo(std::vector<ParticleSet>& sets, const GridLayout& layout, size_t pb,
+                  const TransferParams& p, SleepHalos& halos, HaloBuffer<4>& buf,
+                  HaloBuffer<4>& fbuf, std::vector<Mat3f>& keep_F, std::vector<float>& keep_J) {
+  const size_t slot = size_t(halos.slot[pb]);
+  float* sums = halos.sums.data() + slot * SleepHalos::kFloats;
+  if (!halos.filled[slot]) {
+    std::memset(buf.d, 0, sizeof(buf.d));
+    TransferParams unit = p;
+    unit.dt = 1.0f;
+    for (size_t s = 0; s < sets.size(); ++s) {
+      ParticleSet& set = sets[s];
+      const std::vector<uint32_t>& off = layout.offsets[s];
+      const size_t b = off[pb], e = off[pb + 1];
+      if (b == e) continue;
+      if (!set.F.empty())
+        keep_F.assign(set.F.begin() + std::ptrdiff_t(b), set.F.begin() + std::ptrdiff_t(e));
+      if (!set.J.empty())
+        keep_J.assign(set.J.begin() + std::ptrdiff_t(b), set.J.begin() + std::ptrdiff_t(e));
+      const SetScales k = setScales(set, unit);
+      std::visit(
+          [&](const auto& model) {
+            stressAndScatter<std::decay_t<decltype(model)>, kFlip>(model, set, k, off, pb, unit,
+                                                                   layout, buf, &fbuf);
+          },
+          set.model);
+      if (!set.F.empty())
+        std::copy(keep_F.begin(), keep_F.end(), set.F.begin() + std::ptrdiff_t(b));
+      if (!set.J.empty())
+        std::copy(keep_J.begin(), keep_J.end(), set.J.begin() + std::ptrdiff_t(b));
+    }
+    std::memcpy(sums, buf.d, SleepHalos::kFloats * sizeof(float));
+    halos.filled[slot] = 1;
+  } else {
+    std::memcpy(buf.d, sums, SleepHalos::kFloats * sizeof(float));
+  }
+  for (int h = 0; h < kHaloNodes; ++h)
+    for (int c = 1; c < 4; ++c) buf.d[h][c] *= p.dt;
+  // At rest: no momentum before the stress, for FLIP's change.
+  if constexpr (kFlip) std::memset(fbuf.d, 0, sizeof(fbuf.d));
+}
+
 template <bool kFlip>
 float scatterAll(std::vector<ParticleSet>& sets, const GridLayout& layout, const TransferParams& p,
                  std::vector<GridNode>& grid, std::vector<GridNode>* flip,
-                 std::vector<GridNode>* layers, std::vector<GridNode>* flip_layers) {
+                 std::vector<GridNode>* layers, std::vector<GridNode>* flip_layers,
+                 SleepHalos* halos) {
   // Colours run one after another; blocks of one colour touch disjoint nodes,
   // so each node's sum has the same order for any thread count. One
   // parallel region for all eight (a barrier between colours): a region
@@ -298,15 +348,21 @@ float scatterAll(std::vector<ParticleSet>& sets, const GridLayout& layout, const
   {
     HaloBuffer<4> buf;
     HaloBuffer<4> fbuf;
+    std::vector<Mat3f> keep_F;
+    std::vector<float> keep_J;
     for (int colour = 0; colour < 8; ++colour) {
       const std::vector<uint32_t>& blocks = layout.colour_blocks[colour];
 #pragma omp for schedule(dynamic, 1)
       for (int64_t k = 0; k < static_cast<int64_t>(blocks.size()); ++k) {
         const size_t pb = blocks[k];
-        if (layout.sleeping(pb)) continue;
-        std::memset(buf.d, 0, sizeof(buf.d));
-        if constexpr (kFlip) std::memset(fbuf.d, 0, sizeof(fbuf.d));
-        for (size_t s = 0; s < sets.size(); ++s) {
+        const bool asleep = layout.sleeping(pb);
+        if (asleep && !halos) continue;
+        if (asleep) sleepingHalo<kFlip>(sets, layout, pb, p, *halos, buf, fbuf, keep_F, keep_J);
+        if (!asleep) std::memset(buf.d, 0, sizeof(buf.d));
+        if constexpr (kFlip) {
+          if (!asleep) std::memset(fbuf.d, 0, sizeof(fbuf.d));
+        }
+        for (size_t s = 0; s < sets.size() && !asleep; ++s) {
           const std::vector<uint32_t>& off = layout.offsets[s];
           if (off[pb] == off[pb + 1]) continue;
           // The material variant is visited once per block and set.
@@ -416,7 +472,7 @@ G2PStats gatherSet(ParticleSet& set, size_t s, const GridLayout& layout,
 float particlesToGrid(std::vector<ParticleSet>& sets, const GridLayout& layout,
                       const TransferParams& p, std::vector<GridNode>& grid,
                       std::vector<GridNode>* flip, std::vector<GridNode>* layers,
-                      std::vector<GridNode>* flip_layers) {
+                      std::vector<GridNode>* flip_layers, SleepHalos* sleeping) {
   const size_t nodes = layout.gridBlocks() * kBlockNodes;
   const size_t layer_nodes = layout.layered_blocks * 8 * kBlockNodes;
   grid.assign(nodes, GridNode{0, {0, 0, 0}});
@@ -424,9 +480,51 @@ float particlesToGrid(std::vector<ParticleSet>& sets, const GridLayout& layout,
   if (flip) {
     flip->assign(nodes, GridNode{0, {0, 0, 0}});
     if (flip_layers) flip_layers->assign(layer_nodes, GridNode{0, {0, 0, 0}});
-    return scatterAll<true>(sets, layout, p, grid, flip, layers, flip_layers);
+    return scatterAll<true>(sets, layout, p, grid, flip, layers, flip_layers, sleeping);
   }
-  return scatterAll<false>(sets, layout, p, grid, nullptr, layers, nullptr);
+  return scatterAll<false>(sets, layout, p, grid, nullptr, layers, nullptr, sleeping);
+}
+
+void sleepersThatWouldMove(const std::vector<ParticleSet>& sets, const GridLayout& layout,
+                           const TransferParams& p, const std::vector<GridNode>& grid, float speed,
+                           std::vector<uint8_t>& moving) {
+  const size_t nblocks = layout.particleBlocks();
+  moving.assign(nblocks, 0);
+  if (layout.asleep.empty()) return;
+  const float limit2 = speed * speed;
+  // Velocities only: a sleeping block costs this sum of 27 node velocities
+  // per particle, none of the stress, scatter or stores.
+#pragma omp parallel for schedule(dynamic, 1) if (layoutParticles(layout) > kParallelTransfer)
+  for (int64_t b = 0; b < static_cast<int64_t>(nblocks); ++b) {
+    const size_t pb = size_t(b);
+    if (!layout.sleeping(pb)) continue;
+    HaloBuffer<4> buf;
+    forHalo(layout, pb,
+            [&](int h, size_t node) { std::memcpy(buf.d[h], &grid[node], sizeof(GridNode)); });
+    const Vec3i origin = haloOrigin(layout, pb);
+    for (size_t s = 0; s < sets.size() && !moving[pb]; ++s) {
+      const ParticleSet& set = sets[s];
+      const std::vector<uint32_t>& off = layout.offsets[s];
+      for (uint32_t i = off[pb]; i < off[pb + 1]; ++i) {
+        const Stencil st = stencilAt(set.x[i], p.shifted_origin, p.inv_dx);
+        const Vec3i h = haloOffset(st, origin);
+        Lanes4 v = {0, 0, 0, 0};
+        for (int x = 0; x < 3; ++x)
+          for (int y = 0; y < 3; ++y)
+            for (int z = 0; z < 3; ++z) {
+              Lanes4 n;
+              std::memcpy(&n, buf.d[HaloBuffer<4>::index(h.x() + x, h.y() + y, h.z() + z)],
+                          sizeof(n));
+              v += (st.w[0][x] * st.w[1][y] * st.w[2][z]) * n;
+            }
+        // A NaN wakes the block too: its gather then reports it.
+        if (!(v[1] * v[1] + v[2] * v[2] + v[3] * v[3] <= limit2)) {
+          moving[pb] = 1;
+          break;
+        }
+      }
+    }
+  }
 }
 
 G2PStats gridToParticles(std::vector<ParticleSet>& sets, const GridLayout& layout,

@@ -10,6 +10,7 @@
 namespace triad {
 
 struct ParticleSet;
+struct SleepHalos;
 
 struct TransferParams {
   Vec3f shifted_origin;  // world position of node 0 plus dx/2 (see shiftedCoord)
@@ -39,12 +40,14 @@ struct G2PStats {
 // With FLIP, `flip` receives the momentum without the stress impulse.
 // Where the layout marks layered blocks (a split run), their sums go to
 // `layers` (and `flip_layers`) instead, 64 nodes per (slot * 8 + colour).
-// Particles of sleeping blocks are left as they are.
+// Particles of sleeping blocks are left as they are; with `sleeping`, the
+// blocks scatter their kept sums at rest instead (sim/mpm/sleep.h), which
+// they compute first where they have none.
 // Returns the largest stiffness scale (snow hardening; 1 for the others).
 float particlesToGrid(std::vector<ParticleSet>& sets, const GridLayout& layout,
                       const TransferParams& p, std::vector<GridNode>& grid,
                       std::vector<GridNode>* flip, std::vector<GridNode>* layers = nullptr,
-                      std::vector<GridNode>* flip_layers = nullptr);
+                      std::vector<GridNode>* flip_layers = nullptr, SleepHalos* sleeping = nullptr);
 
 // Gather velocities (and, with FLIP, velocity changes) back to particles,
 // advect them, and update each particle's F (or J for water). Sleeping
@@ -54,6 +57,12 @@ G2PStats gridToParticles(std::vector<ParticleSet>& sets, const GridLayout& layou
                          const TransferParams& p, const std::vector<GridNode>& grid,
                          const std::vector<GridNode>* flip,
                          std::vector<float>* block_speed2 = nullptr);
+
+// Per particle block, 1 where the block sleeps and one of its particles
+// would gather a velocity faster than `speed` from `grid` (0 elsewhere).
+void sleepersThatWouldMove(const std::vector<ParticleSet>& sets, const GridLayout& layout,
+                           const TransferParams& p, const std::vector<GridNode>& grid, float speed,
+                           std::vector<uint8_t>& moving);
 
 // Quadratic B-spline stencil of a particle: base node and per-axis weights.
 struct Stencil {
