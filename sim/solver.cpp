@@ -204,6 +204,7 @@ void Solver::drainSinks(double dt) {
 
 void Solver::binParticles() {
   PhaseTimer timer(times_.bin);
+  binned_ = true;
   binner_.bin(world_.sets, params_.shifted_origin, params_.inv_dx, layout_, &grid_,
               domain_ ? domain_->binOrder() : nullptr);
 }
@@ -356,6 +357,12 @@ void Solver::predictSolids(double dt) {
                                         : SolidKind::Static;
     const size_t id = points_.addSolid(b.sample_mass, b.friction, kind, b.fixed ? 0.0 : b.mass);
     if (kind == SolidKind::Static && coupling_->fixedBuilt()) continue;
+    // A body far from all material flies (or is driven) on its own: no node
+    // of its would meet material, so the grid would give it nothing back.
+    if (kind != SolidKind::Static && !b.deform && farFromMaterial(b, dt)) {
+      if (b.animated) b.poseAt(world_.time);
+      continue;
+    }
     // From the clock alone, so that a resumed run poses it the same.
     if (b.animated) b.poseAt(world_.time);
     if (!b.fixed) {
@@ -453,6 +460,23 @@ void Solver::predictSolids(double dt) {
   }
 }
 
+bool Solver::farFromMaterial(const RigidBody& b, double dt) const {
+  // The blocks that held particles at the last binning (a split run's
+  // process sees only its own: it scatters every body). Since then the
+  // material moved less than a cell, the body by its speed over the step.
+  if (!binned_ || domain_ || !world_.sources.empty()) return false;
+  const double dx = world_.scene.domain.dx;
+  const double reach = double(b.radius) + b.state.v.norm() * dt + wakeMargin() +
+                       std::sqrt(3.0) * 0.5 * kBlockSize * dx;
+  const Vec3d o = params_.shifted_origin.cast<double>();
+  for (const uint64_t key : layout_.particle_keys) {
+    const Vec3d centre =
+        o + (unpackBlock(key).cast<double>() * kBlockSize + Vec3d::Constant(0.5 * kBlockSize)) * dx;
+    if ((centre - b.state.x).squaredNorm() < reach * reach) return false;
+  }
+  return true;
+}
+
 double Solver::wallFriction() const {
   const BoundaryDesc& wall = world_.scene.domain.boundary;
   return wall.type == BoundaryType::Sticky ? 1e30 : wall.friction;
@@ -539,6 +563,8 @@ void Solver::pushOutOfSolids(double dt) {
     Vec3d p = Vec3d::Zero(), l = Vec3d::Zero();
   };
   size_t moved = 0;
+  const Vec3d o = params_.shifted_origin.cast<double>();
+  const double block_reach = (std::sqrt(3.0) * 0.5 * kBlockSize + 1.0) * dx;
   for (size_t si = 0; si < world_.sets.size() && nb > 0; ++si) {
     ParticleSet& set = world_.sets[si];
     const std::vector<uint32_t>& off = layout_.offsets[si];
@@ -546,12 +572,27 @@ void Solver::pushOutOfSolids(double dt) {
 #pragma omp parallel reduction(+ : moved)
     {
       std::vector<Push> mine, acc(nb);
-      std::vector<uint8_t> touched(nb);
+      std::vector<uint8_t> touched(nb), near(nb);
 #pragma omp for schedule(dynamic, 16) nowait
       for (int64_t pb = 0; pb < int64_t(layout_.particleBlocks()); ++pb) {
+        if (off[pb] == off[pb + 1]) continue;
         std::fill(touched.begin(), touched.end(), 0);
+        // Only bodies whose bounding sphere meets the block's (its particles
+        // lie within half a cell of its cells).
+        const Vec3d centre =
+            o + (unpackBlock(layout_.particle_keys[size_t(pb)]).cast<double>() * kBlockSize +
+                 Vec3d::Constant(0.5 * kBlockSize)) *
+                    dx;
+        bool any = false;
+        for (size_t bi = 0; bi < nb; ++bi) {
+          const double r = double(world_.bodies[bi].radius) + block_reach;
+          near[bi] = (centre - world_.bodies[bi].state.x).squaredNorm() <= r * r;
+          any = any || near[bi];
+        }
+        if (!any) continue;
         for (int64_t i = off[pb]; i < int64_t(off[pb + 1]); ++i) {
           for (size_t bi = 0; bi < nb; ++bi) {
+            if (!near[bi]) continue;
             const RigidBody& b = world_.bodies[bi];
             const Vec3d x = set.x[i].cast<double>();
             double phi;

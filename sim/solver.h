@@ -107,6 +107,9 @@ class Solver {
   // Settled material: which blocks sleep this step (and still their
   // particles), from the blocks' still times and the moving solids.
   void classifySleep();
+  // Whether rigid body b is beyond the reach of every particle block of
+  // the last binning, this step included.
+  bool farFromMaterial(const RigidBody& b, double dt) const;
   void wakeMovingSleepers();
   // Rigid bodies at rest among calm material sleep with it: held still,
   // they neither fall nor keep the material around them awake.
@@ -173,6 +176,7 @@ class Solver {
   std::vector<Vec3d> contact_surface_;                     // per such plane, the surface point
   static constexpr int kContactPasses = 3;        // implicit solves per step against moving bodies
   static constexpr double kMaxElementCfl = 0.5;  // explicit FEM step, fraction of h / c
+  bool binned_ = false;  // the layout holds a binning of this run's particles
   bool shrunk_ = false;  // particles moved out of bodies in the last step
 
   float max_speed_ = 0.0f;

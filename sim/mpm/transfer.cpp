@@ -499,8 +499,15 @@ void sleepersThatWouldMove(const std::vector<ParticleSet>& sets, const GridLayou
     const size_t pb = size_t(b);
     if (!layout.sleeping(pb)) continue;
     HaloBuffer<4> buf;
-    forHalo(layout, pb,
-            [&](int h, size_t node) { std::memcpy(buf.d[h], &grid[node], sizeof(GridNode)); });
+    float fastest = 0.0f;
+    forHalo(layout, pb, [&](int h, size_t node) {
+      const GridNode& g = grid[node];
+      std::memcpy(buf.d[h], &g, sizeof(GridNode));
+      fastest = std::max(fastest, g.v[0] * g.v[0] + g.v[1] * g.v[1] + g.v[2] * g.v[2]);
+    });
+    // A particle's velocity is a weighted mean of its nodes': none is faster
+    // than the fastest node (a NaN fails the test and goes on).
+    if (fastest <= limit2) continue;
     const Vec3i origin = haloOrigin(layout, pb);
     for (size_t s = 0; s < sets.size() && !moving[pb]; ++s) {
       const ParticleSet& set = sets[s];
