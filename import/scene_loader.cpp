@@ -187,13 +187,14 @@ SolverDesc parseSolver(const ParamDict& root) {
   out.contact_iterations =
       s->getInt("contact_iterations", out.contact_iterations, Range::closed(1, 1000));
   // Settled material sleeps: true (the measured defaults), false, or the
-  // speed threshold and delay.
+  // speed threshold, delay and whether neighbours must be still too.
   if (const nlohmann::json* sleep = s->find("sleep")) {
     if (sleep->is_object()) {
       const ParamDict d = *s->getDict("sleep");
       out.sleep.enabled = true;
       out.sleep.speed = d.getDouble("speed", out.sleep.speed, Range::positive());
       out.sleep.delay = d.getDouble("delay", out.sleep.delay, Range::nonNegative());
+      out.sleep.neighbours = d.getBool("neighbours", out.sleep.neighbours);
       d.checkUnknownKeys();
     } else {
       out.sleep.enabled = s->getBool("sleep", false);

@@ -58,6 +58,10 @@ struct SleepDesc {
   bool enabled = false;
   double speed = 0.01;  // m/s
   double delay = 0.2;   // s
+  // A block sleeps only once the blocks around it have been still for the
+  // delay too. Off, material creeping beside a sleeping block is held back
+  // by it (faster, less exact: bench/RESULTS.md, "Sleeping material").
+  bool neighbours = true;
 };
 
 struct SolverDesc {

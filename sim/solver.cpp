@@ -272,17 +272,27 @@ WakeBox Solver::elasticBox(const ElasticSolid& e) const {
 
 void Solver::classifySleep() {
   PhaseTimer timer(times_.bin);
-  // Moving solids keep the material near them awake; a sleeping body
-  // sleeps with it.
+  // Solids moving faster than the speed keep the material near them awake.
+  // One slower than that (at rest in material that still creeps, or asleep)
+  // leaves the material to its own test: sleeping material scatters its
+  // mass and stress, so the collision still meets it and wakes it when the
+  // solid pushes it faster than the speed.
   std::vector<WakeBox> wake;
+  const double still = sleep_->speed();
   for (size_t k = 0; k < world_.bodies.size(); ++k) {
     const RigidBody& b = world_.bodies[k];
     if (b.fixed && !b.animated && !b.deform) continue;
     if (k < body_asleep_.size() && body_asleep_[k]) continue;
+    const double speed = b.state.v.norm() + b.omega().norm() * double(b.radius);
+    if (!b.deform && speed < still) continue;
     wake.push_back(wakeBox(b));
   }
-  for (const ElasticSolid& e : world_.elastics) wake.push_back(elasticBox(e));
-  sleeping_ = sleep_->classify(layout_, wake, params_.shifted_origin, params_.inv_dx);
+  for (const ElasticSolid& e : world_.elastics) {
+    double fastest = 0.0;
+    for (const Vec3d& v : e.fem.v) fastest = std::max(fastest, v.norm());
+    if (fastest >= still) wake.push_back(elasticBox(e));
+  }
+  sleeping_ = sleep_->classify(layout_, wake, params_.shifted_origin, params_.inv_dx, domain_);
   sleep_halos_.prepare(layout_);
   stillSleepingParticles(layout_, world_.sets);
 }

@@ -276,6 +276,11 @@ TEST_F(SceneLoaderTest, ReadsSleepAsAFlagOrItsSettings) {
   EXPECT_TRUE(s.enabled);
   EXPECT_EQ(s.speed, 0.002);
   EXPECT_EQ(s.delay, 0.5);
+  EXPECT_TRUE(s.neighbours);
+  j["solver"] = {{"sleep", {{"neighbours", false}}}};
+  EXPECT_FALSE(load(j).solver.sleep.neighbours);
+  j["solver"] = {{"sleep", {{"neighbours", 1}}}};
+  EXPECT_TRUE(contains(parseError(j), {"solver.sleep.neighbours"}));
   j["solver"] = {{"sleep", {{"speed", -1}}}};
   EXPECT_TRUE(contains(parseError(j), {"virtual.json", "solver.sleep.speed"}));
   j["solver"] = {{"sleep", {{"sped", 0.1}}}};

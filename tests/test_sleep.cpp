@@ -75,6 +75,29 @@ TEST(Sleep, SettledSandSleepsWhereItRests) {
     for (const Vec3f& v : set.v) ASSERT_LT(v.norm(), 0.01f);
 }
 
+// `neighbours: false` lets a block sleep as soon as its own particles have
+// been still for the delay: while the layer still rings at its edges, more
+// of it sleeps than by default, and it still ends within 0.1 dx.
+TEST(Sleep, WithoutWaitingForNeighboursMoreSleepsSooner) {
+  json lone = sandScene("sleep_lone", true, false);
+  lone["solver"]["sleep"]["neighbours"] = false;
+  World awake = test::loadWorld(test::tempDir("sleep_ref"), sandScene("sleep_ref", false, false));
+  World waits =
+      test::loadWorld(test::tempDir("sleep_waits"), sandScene("sleep_waits", true, false));
+  World alone = test::loadWorld(test::tempDir("sleep_lone"), lone);
+  Solver a(awake), w(waits), l(alone);
+  a.advanceTo(0.9);
+  w.advanceTo(0.9);
+  l.advanceTo(0.9);
+  const double share_w = double(w.record().sleeping_steps) / double(w.record().particle_steps);
+  const double share_l = double(l.record().sleeping_steps) / double(l.record().particle_steps);
+  const double diff = largestDifference(awake, alone);
+  std::printf("asleep %.1f%% (neighbours still) and %.1f%% (alone); alone %.3f dx from awake\n",
+              100 * share_w, 100 * share_l, diff / kDx);
+  EXPECT_GT(share_l, share_w + 0.02);
+  EXPECT_LT(diff, 0.1 * kDx);
+}
+
 // A ball thrown up lands on the sleeping layer: the sand around it wakes in
 // time to hold it, and it comes to rest where it does without sleep. (Were
 // the sand not woken, its held nodes would stop the ball like a rigid floor:

@@ -37,7 +37,7 @@ bool SleepTracker::calmWithin(const WakeBox& box, const Vec3f& origin, float inv
 }
 
 size_t SleepTracker::classify(GridLayout& layout, const std::vector<WakeBox>& wake,
-                              const Vec3f& origin, float inv_dx) {
+                              const Vec3f& origin, float inv_dx, DomainExchange* split) {
   const size_t nblocks = layout.particleBlocks();
 
   // Carry each block's still time over. A block whose particle count
@@ -55,9 +55,36 @@ size_t SleepTracker::classify(GridLayout& layout, const std::vector<WakeBox>& wa
       still_[b] = state_.still[j];
   }
 
-  // Asleep: still for the delay, and no moving solid near.
+  // Every block that holds particles now, and its still time: split over
+  // processes, every process's (each holds a run of keys, in process order).
+  struct Block {
+    uint64_t key;
+    double still;
+  };
+  std::vector<Block> now(nblocks);
+  for (size_t b = 0; b < nblocks; ++b) now[b] = {layout.particle_keys[b], still_[b]};
+  if (split) now = allGatherValues(*split, now);
+  std::vector<uint64_t> keys(now.size());
+  for (size_t b = 0; b < now.size(); ++b) keys[b] = now[b].key;
+  auto stillAt = [&](const Vec3i& c) {
+    const auto it = std::lower_bound(keys.begin(), keys.end(), packBlock(c));
+    return it == keys.end() || *it != packBlock(c) ||
+           now[size_t(it - keys.begin())].still >= desc_.delay;
+  };
+
+  // Asleep: still for the delay, and so is every block around it (material
+  // creeping next to a sleeping block would be held back by its rest), and
+  // no moving solid near.
   layout.asleep.assign(nblocks, 0);
-  for (size_t b = 0; b < nblocks; ++b) layout.asleep[b] = still_[b] >= desc_.delay;
+  for (size_t b = 0; b < nblocks; ++b) {
+    if (still_[b] < desc_.delay) continue;
+    const Vec3i c = unpackBlock(layout.particle_keys[b]);
+    bool calm = true;
+    for (int dx = -1; dx <= 1 && calm && desc_.neighbours; ++dx)
+      for (int dy = -1; dy <= 1 && calm; ++dy)
+        for (int dz = -1; dz <= 1 && calm; ++dz) calm = stillAt(c + Vec3i(dx, dy, dz));
+    layout.asleep[b] = calm;
+  }
   for (const WakeBox& w : wake) {
     const Vec3i lo = blockOfPoint(w.lo, origin, inv_dx), hi = blockOfPoint(w.hi, origin, inv_dx);
     for (size_t b = 0; b < nblocks; ++b) {

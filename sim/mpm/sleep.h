@@ -71,9 +71,11 @@ class SleepTracker {
   // After binning: carries the still times over to the new blocks and fills
   // layout.asleep. Blocks touched by `wake` (world boxes) stay awake.
   // `origin`, `inv_dx`: the binner's shifted origin and inverse spacing.
-  // Returns the number of sleeping particles.
+  // Returns the number of sleeping particles. Split over processes
+  // (`split`), a block's neighbours may be another process's: every
+  // process's blocks and still times are gathered first.
   size_t classify(GridLayout& layout, const std::vector<WakeBox>& wake, const Vec3f& origin,
-                  float inv_dx);
+                  float inv_dx, DomainExchange* split = nullptr);
 
   // After the grid update and the collision: wakes every sleeping block
   // that `moving` marks (sleepersThatWouldMove, sim/mpm/transfer.h), for

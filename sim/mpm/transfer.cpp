@@ -499,6 +499,7 @@ void sleepersThatWouldMove(const std::vector<ParticleSet>& sets, const GridLayou
     const size_t pb = size_t(b);
     if (!layout.sleeping(pb)) continue;
     HaloBuffer<4> buf;
+    std::memset(buf.d[kHaloNodes], 0, sizeof(buf.d[kHaloNodes]));  // past the last row
     float fastest = 0.0f;
     forHalo(layout, pb, [&](int h, size_t node) {
       const GridNode& g = grid[node];
@@ -515,15 +516,16 @@ void sleepersThatWouldMove(const std::vector<ParticleSet>& sets, const GridLayou
       for (uint32_t i = off[pb]; i < off[pb + 1]; ++i) {
         const Stencil st = stencilAt(set.x[i], p.shifted_origin, p.inv_dx);
         const Vec3i h = haloOffset(st, origin);
-        Lanes4 v = {0, 0, 0, 0};
+        // Rows of four nodes along z, their z weights applied at the end.
+        Lanes16 rows = {};
         for (int x = 0; x < 3; ++x)
-          for (int y = 0; y < 3; ++y)
-            for (int z = 0; z < 3; ++z) {
-              Lanes4 n;
-              std::memcpy(&n, buf.d[HaloBuffer<4>::index(h.x() + x, h.y() + y, h.z() + z)],
-                          sizeof(n));
-              v += (st.w[0][x] * st.w[1][y] * st.w[2][z]) * n;
-            }
+          for (int y = 0; y < 3; ++y) {
+            Lanes16 r;
+            loadRow(buf.d[HaloBuffer<4>::index(h.x() + x, h.y() + y, h.z())], r);
+            rows += (st.w[0][x] * st.w[1][y]) * r;
+          }
+        const Lanes4 v =
+            st.w[2][0] * group<0>(rows) + st.w[2][1] * group<1>(rows) + st.w[2][2] * group<2>(rows);
         // A NaN wakes the block too: its gather then reports it.
         if (!(v[1] * v[1] + v[2] * v[2] + v[3] * v[3] <= limit2)) {
           moving[pb] = 1;
