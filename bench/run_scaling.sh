@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Cost per particle-substep as the particle count grows 8x and 64x (the
-# reference jelly cube at dx 0.02, 0.01, 0.005: 27k, 216k, 1.73M particles),
+# Cost per particle-substep as the particle count grows 8x, 64x and 296x (the
+# reference jelly cube at dx 0.02, 0.01, 0.005, 0.003: 27k, 216k, 1.73M, 8M
+# particles),
 # on 1 and 2 threads, median of N runs (default 3), about 50 substeps each.
 #   bench/run_scaling.sh [runs]
 set -euo pipefail
@@ -11,7 +12,7 @@ bin=build/bench/bench_mpm
 tmp=$(mktemp -d)
 export OMP_WAIT_POLICY=passive
 printf "| dx | particles | threads | ns per particle-substep (median of %s) | particle-substeps/s | bytes/particle held |\n|---|---|---|---|---|---|\n" "$runs"
-for spec in "0.02 0.028" "0.01 0.014" "0.005 0.007"; do
+for spec in "0.02 0.028" "0.01 0.014" "0.005 0.007" "0.003 0.0042"; do
   read -r dx time <<<"$spec"
   sed -E "s/\"dx\": 0.01/\"dx\": $dx/; s/jelly_cube_216k/jelly_cube_dx$dx/" bench/scenes/jelly_cube_216k.json > "$tmp/s.json"
   for threads in 1 2; do
