@@ -475,16 +475,19 @@ bool Solver::farFromMaterial(const RigidBody& b, double dt) const {
   // process sees only its own: it scatters every body). Since then the
   // material moved less than a cell, the body by its speed over the step.
   if (!binned_ || domain_ || !world_.sources.empty()) return false;
-  const double dx = world_.scene.domain.dx;
   const double reach = double(b.radius) + b.state.v.norm() * dt + wakeMargin() +
-                       std::sqrt(3.0) * 0.5 * kBlockSize * dx;
-  const Vec3d o = params_.shifted_origin.cast<double>();
-  for (const uint64_t key : layout_.particle_keys) {
-    const Vec3d centre =
-        o + (unpackBlock(key).cast<double>() * kBlockSize + Vec3d::Constant(0.5 * kBlockSize)) * dx;
-    if ((centre - b.state.x).squaredNorm() < reach * reach) return false;
-  }
+                       std::sqrt(3.0) * 0.5 * kBlockSize * world_.scene.domain.dx;
+  for (const uint64_t key : layout_.particle_keys)
+    if ((blockCentre(key) - b.state.x).squaredNorm() < reach * reach) return false;
   return true;
+}
+
+Vec3d Solver::blockCentre(uint64_t key) const {
+  // A particle block holds the particles whose stencil's base node is one
+  // of its nodes: they lie in the block's cells shifted by half a cell.
+  return params_.shifted_origin.cast<double>() +
+         (unpackBlock(key).cast<double>() + Vec3d::Constant(0.5)) * kBlockSize *
+             world_.scene.domain.dx;
 }
 
 double Solver::wallFriction() const {
@@ -573,7 +576,6 @@ void Solver::pushOutOfSolids(double dt) {
     Vec3d p = Vec3d::Zero(), l = Vec3d::Zero();
   };
   size_t moved = 0;
-  const Vec3d o = params_.shifted_origin.cast<double>();
   const double block_reach = (std::sqrt(3.0) * 0.5 * kBlockSize + 1.0) * dx;
   for (size_t si = 0; si < world_.sets.size() && nb > 0; ++si) {
     ParticleSet& set = world_.sets[si];
@@ -589,10 +591,7 @@ void Solver::pushOutOfSolids(double dt) {
         std::fill(touched.begin(), touched.end(), 0);
         // Only bodies whose bounding sphere meets the block's (its particles
         // lie within half a cell of its cells).
-        const Vec3d centre =
-            o + (unpackBlock(layout_.particle_keys[size_t(pb)]).cast<double>() * kBlockSize +
-                 Vec3d::Constant(0.5 * kBlockSize)) *
-                    dx;
+        const Vec3d centre = blockCentre(layout_.particle_keys[size_t(pb)]);
         bool any = false;
         for (size_t bi = 0; bi < nb; ++bi) {
           const double r = double(world_.bodies[bi].radius) + block_reach;

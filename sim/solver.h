@@ -110,6 +110,8 @@ class Solver {
   // Whether rigid body b is beyond the reach of every particle block of
   // the last binning, this step included.
   bool farFromMaterial(const RigidBody& b, double dt) const;
+  // World position of particle block `key`'s centre.
+  Vec3d blockCentre(uint64_t key) const;
   void wakeMovingSleepers();
   // Rigid bodies at rest among calm material sleep with it: held still,
   // they neither fall nor keep the material around them awake.

@@ -8,9 +8,10 @@
 // awake and still, so awake material beside them meets the same support,
 // mass and stress as without sleep.
 //
-// A block sleeps when its particles have been slower than `speed` for
-// `delay` seconds, no particle entered or left it in the last step, and no
-// moving solid's bounds (plus a margin) reach it. It wakes in the step
+// A block sleeps when its particles (and, with `neighbours`, those of the
+// 26 blocks around it) have been slower than `speed` for `delay` seconds,
+// no particle entered or left it in the last step, and no solid moving
+// faster than `speed` has its bounds (plus a margin) reach it. It wakes in the step
 // where one of its particles would gather a velocity faster than `speed`
 // from the grid (after the grid update and the collision with solids), and
 // gathers in that step: moving material, a body or a wave reaching it wakes

@@ -355,14 +355,14 @@ float scatterAll(std::vector<ParticleSet>& sets, const GridLayout& layout, const
 #pragma omp for schedule(dynamic, 1)
       for (int64_t k = 0; k < static_cast<int64_t>(blocks.size()); ++k) {
         const size_t pb = blocks[k];
-        const bool asleep = layout.sleeping(pb);
-        if (asleep && !halos) continue;
-        if (asleep) sleepingHalo<kFlip>(sets, layout, pb, p, *halos, buf, fbuf, keep_F, keep_J);
-        if (!asleep) std::memset(buf.d, 0, sizeof(buf.d));
-        if constexpr (kFlip) {
-          if (!asleep) std::memset(fbuf.d, 0, sizeof(fbuf.d));
+        if (layout.sleeping(pb)) {
+          if (!halos) continue;
+          sleepingHalo<kFlip>(sets, layout, pb, p, *halos, buf, fbuf, keep_F, keep_J);
+        } else {
+          std::memset(buf.d, 0, sizeof(buf.d));
+          if constexpr (kFlip) std::memset(fbuf.d, 0, sizeof(fbuf.d));
         }
-        for (size_t s = 0; s < sets.size() && !asleep; ++s) {
+        for (size_t s = 0; s < sets.size() && !layout.sleeping(pb); ++s) {
           const std::vector<uint32_t>& off = layout.offsets[s];
           if (off[pb] == off[pb + 1]) continue;
           // The material variant is visited once per block and set.
