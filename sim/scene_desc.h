@@ -78,6 +78,8 @@ struct SolverDesc {
   // still takes part in the contact (its signed distance, extrapolated from
   // the samples). 1.5 takes every node the samples' stencils reach.
   double contact_reach = 1.5;
+  bool front_fields = false;      // two fields on moving solids' nodes (front_fields.cpp)
+  double front_tolerance = 0.05;  // cells: a particle is in front of a node's face within it
   ContactNormal contact_normal = ContactNormal::Distance;
   RigidCollision rigid_collision = RigidCollision::Newton;
   // Three grids: material a gap away from a rigid solid may close it in a

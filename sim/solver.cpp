@@ -141,6 +141,7 @@ void Solver::step(double dt) {
     if (solids) collideSolids();    // step 6
     if (sleep_) wakeMovingSleepers();  // sleepers that would move gather too
     gridToParticles(fdt);           // step 7
+    if (solids && coupling_->frontsOn()) correctFronts();  // each particle its own field
     if (solids) pushOutOfSolids(dt);            // no particle stays inside a body
     if (!world_.sinks.empty()) drainSinks(dt);  // remove what the sinks hold
     if (domain_) domain_->migrate(world_.sets);  // particles to their blocks' owners
@@ -543,15 +544,22 @@ void Solver::scatterSolids() {
 void Solver::collideSolids() {
   PhaseTimer timer(times_.solids);
   const SolverDesc& s = world_.scene.solver;
-  if (s.contact_gap && s.coupling == CouplingScheme::ThreeGrid)
-    coupling_->measureGaps(world_.sets, layout_, params_);
+  const bool three = s.coupling == CouplingScheme::ThreeGrid;
+  coupling_->measureNearSolids(world_.sets, layout_, params_, three && s.contact_gap,
+                               three && s.front_fields);
   coupling_->collide(grid_, points_, params_);
+  coupling_->finishFronts(grid_);
   for (size_t b = 0; b < world_.bodies.size(); ++b) {
     if (!world_.bodies[b].fixed) continue;
     const Vec3d j = coupling_->nodeImpulse()[b];
     loads_[b].impulse += j;
     loads_[b].moment += coupling_->nodeMoment()[b] - world_.bodies[b].state.x.cross(j);
   }
+}
+
+void Solver::correctFronts() {
+  PhaseTimer timer(times_.solids);
+  coupling_->correctFronts(world_.sets, layout_, params_);
 }
 
 void Solver::pushOutOfSolids(double dt) {

@@ -129,6 +129,7 @@ class Solver {
   void scatterSolids();
   void collideSolids();
   void advanceSolids(double dt);
+  void correctFronts();
   void pushOutOfSolids(double dt);
   // Elastic nodes after the grid: velocities constrained by the walls and
   // rigid bodies (then by each other), then moved.

@@ -102,6 +102,44 @@ TEST(Cli, SameBytesForOneAndTwoThreadsWithRigidBodies) {
   EXPECT_NE(slurp(dir / "t1/bodies/crate.0000.ply"), slurp(dir / "t1/bodies/crate.0003.ply"));
 }
 
+// The same with two fields on the solids' nodes (solver.front_fields): the
+// scan's node sums go colour by colour, and every particle is corrected
+// alone. The crate and the ball of the test above, and an elastic block.
+TEST(Cli, SameBytesForOneAndTwoThreadsWithFrontFields) {
+  const fs::path dir = test::tempDir("cli_threads_fronts");
+  json j = mixedScene();
+  j["solver"]["front_fields"] = true;
+  auto rigid = [](const char* name, json shape, double density, std::array<double, 3> v) {
+    return json{{"name", name},    {"kind", "rigid"}, {"density", density},
+                {"friction", 0.4}, {"shape", shape},  {"velocity", v}};
+  };
+  j["objects"].push_back(
+      rigid("crate", test::box({0.25, 0.1, 0.2}, {0.33, 0.16, 0.28}), 600, {2, -1, 0}));
+  j["objects"].push_back(rigid("ball",
+                               json{{"sphere", {{"center", {0.3, 0.3, 0.24}}, {"radius", 0.04}}}},
+                               3000, {0, -2, 0}));
+  j["objects"].push_back({{"name", "block"},
+                          {"kind", "elastic"},
+                          {"material", "jelly"},
+                          {"friction", 0.4},
+                          {"shape", test::box({0.2, 0.25, 0.05}, {0.28, 0.33, 0.13})},
+                          {"velocity", {0, -2, 0}}});
+  const std::string scene = test::writeScene(dir, j);
+  const Result one =
+      triad(dir, "run " + scene + " --threads 1 --quiet --out " + (dir / "t1").string());
+  ASSERT_EQ(one.status, 0) << one.err;
+  const Result two =
+      triad(dir, "run " + scene + " --threads 2 --quiet --out " + (dir / "t2").string());
+  ASSERT_EQ(two.status, 0) << two.err;
+  for (const char* name : {"particles/particles.0003.ply", "bodies/rigid_states.csv",
+                           "bodies/crate.0003.ply", "bodies/block.0003.ply"}) {
+    const std::string a = slurp(dir / "t1" / name), b = slurp(dir / "t2" / name);
+    ASSERT_GT(a.size(), 100u) << name;
+    EXPECT_TRUE(a == b) << name << " differs between 1 and 2 threads";
+  }
+  EXPECT_NE(slurp(dir / "t1/bodies/crate.0000.ply"), slurp(dir / "t1/bodies/crate.0003.ply"));
+}
+
 // The same with an elastic solid falling into the sand: its element
 // forces, deformed normals and push-out of particles run in parallel (the
 // sand's set is over the push-out's parallel threshold of 8192 particles).

@@ -389,7 +389,8 @@ TEST_F(SceneLoaderTest, DefaultsAreTheDocumentedOnes) {
       {"domain", "friction", "/domain/boundary/friction",
        [](const SceneDesc& s) { return json(s.domain.boundary.friction); }},
       {"solver", "cfl", "/solver/cfl", [](const SceneDesc& s) { return json(s.solver.cfl); }},
-      {"solver", "max_dt", "/solver/max_dt", [](const SceneDesc& s) { return json(s.solver.max_dt); }},
+      {"solver", "max_dt", "/solver/max_dt",
+       [](const SceneDesc& s) { return json(s.solver.max_dt); }},
       {"solver", "particles_per_cell", "/solver/particles_per_cell",
        [](const SceneDesc& s) { return json(s.solver.particles_per_cell); }},
       {"solver", "transfer", "/solver/transfer",
@@ -404,6 +405,10 @@ TEST_F(SceneLoaderTest, DefaultsAreTheDocumentedOnes) {
        [](const SceneDesc& s) { return json(int(s.solver.rigid_node_mass)); }},
       {"solver", "contact_reach", "/solver/contact_reach",
        [](const SceneDesc& s) { return json(s.solver.contact_reach); }},
+      {"solver", "front_fields", "/solver/front_fields",
+       [](const SceneDesc& s) { return json(s.solver.front_fields); }},
+      {"solver", "front_tolerance", "/solver/front_tolerance",
+       [](const SceneDesc& s) { return json(s.solver.front_tolerance); }},
       {"solver", "contact_normal", "/solver/contact_normal",
        [](const SceneDesc& s) { return json(int(s.solver.contact_normal)); }},
       {"solver", "coupling_iterations", "/solver/coupling_iterations",
@@ -440,8 +445,10 @@ TEST_F(SceneLoaderTest, DefaultsAreTheDocumentedOnes) {
        [](const SceneDesc& s) { return json(s.output.checkpoints); }},
       {"render", "resolution", "/render/resolution",
        [](const SceneDesc& s) { return json(s.render.resolution); }},
-      {"render", "style", "/render/style", [](const SceneDesc& s) { return json(int(s.render.style)); }},
-      {"render", "legend", "/render/legend", [](const SceneDesc& s) { return json(s.render.legend); }},
+      {"render", "style", "/render/style",
+       [](const SceneDesc& s) { return json(int(s.render.style)); }},
+      {"render", "legend", "/render/legend",
+       [](const SceneDesc& s) { return json(s.render.legend); }},
   };
   const SceneDesc without = load(base);
   for (const Case& c : cases) {
@@ -760,6 +767,22 @@ TEST_F(SceneLoaderTest, ContactReachIsCellsWithinTheStencilAndOnlyWithThreeGrids
   EXPECT_TRUE(contains(error(with(single, "/solver/contact_reach", 0.5)),
                        {"solver.contact_reach", "coupling is \"three_grid\"",
                         "\"single_grid\""}));
+}
+
+TEST_F(SceneLoaderTest, FrontFieldsOnlyWithThreeGridsAndApic) {
+  EXPECT_FALSE(load(exampleScene()).solver.front_fields);
+  const json on = with(exampleScene(), "/solver/front_fields", true);
+  EXPECT_TRUE(load(on).solver.front_fields);
+  EXPECT_EQ(load(with(on, "/solver/front_tolerance", 0.2)).solver.front_tolerance, 0.2);
+  EXPECT_TRUE(contains(error(with(on, "/solver/front_tolerance", 2.0)),
+                       {"solver.front_tolerance", "[0, 1.5]"}));
+  EXPECT_TRUE(contains(error(with(exampleScene(), "/solver/front_fields", "yes")),
+                       {"solver.front_fields"}));
+  EXPECT_TRUE(contains(error(with(on, "/solver/transfer", "flip")),
+                       {"solver.front_fields", "transfer \"apic\"", "\"flip\""}));
+  json single = with(exampleScene(), "/solver/coupling", "single_grid");
+  EXPECT_TRUE(contains(error(with(single, "/solver/front_fields", true)),
+                       {"solver.front_fields", "coupling is \"three_grid\""}));
 }
 
 TEST_F(SceneLoaderTest, ContactNormalIsDistanceOrSamplesAndOnlyWithThreeGrids) {

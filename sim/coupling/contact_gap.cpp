@@ -6,6 +6,9 @@
 // the material approach by its gap in the step (a speculative contact), the
 // gap being that of the closest particle whose stencil reaches the node.
 // Only nodes that moving or driven solids reach take a gap.
+// The same pass sums, for the two fields of sim/coupling/front_fields.cpp,
+// each node's material in front of its face and all of it.
+#include <omp.h>
 #include <algorithm>
 #include <cmath>
 
@@ -24,19 +27,20 @@ constexpr float kNoDistance = -1e29f;
 
 }  // namespace
 
-void GridCoupling::measureGaps(const std::vector<ParticleSet>& sets, const GridLayout& layout,
-                               const TransferParams& p) {
-  // No solid that moves: nothing to measure (fixed solids take no gap).
-  // Split over processes, each takes part in the exchange below anyway.
+void GridCoupling::measureNearSolids(const std::vector<ParticleSet>& sets, const GridLayout& layout,
+                                     const TransferParams& p, bool gaps, bool fronts) {
+  // No solid that moves: nothing to measure (fixed solids take no gap and
+  // one field). Split over processes, each takes part in the exchange below
+  // anyway.
   const bool moving =
       std::find(slot_moving_.begin(), slot_moving_.end(), uint8_t(1)) != slot_moving_.end();
-  if (!moving && !domain_) {
-    gap_.clear();
-    return;
-  }
-  gap_.assign(nodes_.size(), kFar);
-  if (moving) measureOwnGaps(sets, layout, p);
-  if (!domain_) return;
+  gap_.clear();
+  front_.clear();
+  for (auto& list : front_lists_) list.clear();
+  if (gaps && (moving || domain_)) gap_.assign(nodes_.size(), kFar);
+  if (fronts && moving) front_.assign(nodes_.size(), FrontSums{});
+  if (moving && (gaps || fronts)) scanNearSolids(sets, layout, p, gaps, fronts);
+  if (!gaps || !domain_) return;
   // The owner of a block takes the closest particle of every process.
   std::vector<float> per_node(layout.gridBlocks() * size_t(kBlockNodes), kFar);
   for (size_t s = 0; s < slot_block_.size(); ++s)
@@ -48,8 +52,10 @@ void GridCoupling::measureGaps(const std::vector<ParticleSet>& sets, const GridL
                 &gap_[s * kBlockNodes]);
 }
 
-void GridCoupling::measureOwnGaps(const std::vector<ParticleSet>& sets, const GridLayout& layout,
-                                  const TransferParams& p) {
+void GridCoupling::scanNearSolids(const std::vector<ParticleSet>& sets, const GridLayout& layout,
+                                  const TransferParams& p, bool gaps, bool fronts) {
+  const float tol = float(solver_.front_tolerance) * p.dx;
+  if (fronts) front_lists_.resize(size_t(omp_get_max_threads()));
   // One parallel region for the eight colours (a barrier between them): a
   // region per colour cost a wake-up of the sleeping threads each.
   size_t widest = 0;
@@ -57,8 +63,11 @@ void GridCoupling::measureOwnGaps(const std::vector<ParticleSet>& sets, const Gr
 #pragma omp parallel if (widest > 1)
   for (int colour = 0; colour < 8; ++colour) {
     const std::vector<uint32_t>& blocks = layout.colour_blocks[size_t(colour)];
-    // Blocks of one colour share no node: the mins need no atomics, and
-    // being mins they are the same for any thread count.
+    std::vector<FrontParticle>* list =
+        fronts ? &front_lists_[size_t(omp_get_thread_num())] : nullptr;
+    // Blocks of one colour share no node: the mins and sums need no
+    // atomics, and each node's sums are added in colour order, block by
+    // block, the same for any thread count.
 #pragma omp for schedule(dynamic, 1)
     for (int64_t k = 0; k < int64_t(blocks.size()); ++k) {
       const uint32_t pb = blocks[size_t(k)];
@@ -67,9 +76,9 @@ void GridCoupling::measureOwnGaps(const std::vector<ParticleSet>& sets, const Gr
       for (int d = 0; d < 8; ++d) {
         const uint32_t gb = layout.neighbours[pb][size_t(d)];
         slot[size_t(d)] = block_slot_[gb];
-        // Only solids that move can open a gap; a fixed solid's nodes keep
-        // the plain approach test (and a floor under a whole scene costs
-        // nothing here).
+        // Only solids that move can open a gap or split a node; a fixed
+        // solid's nodes keep the plain approach test (and a floor under a
+        // whole scene costs nothing here).
         any |= slot[size_t(d)] >= 0 && slot_moving_[size_t(slot[size_t(d)])];
       }
       if (!any) continue;
@@ -83,26 +92,57 @@ void GridCoupling::measureOwnGaps(const std::vector<ParticleSet>& sets, const Gr
           // The particle's distance: the envelope of the planes its nodes'
           // distances came from (phi_i + n_i . (x_p - x_i), the largest),
           // exact beside a face, never more than the true distance.
-          uint32_t node[27];
+          int32_t node[27];  // slot node of a moving solid, or -1
+          float plane[27];   // each node's plane distance at the particle
           float phi = -kFar;
-          int n = 0;
+          int k27 = 0;
           for (int a = 0; a < 3; ++a)
             for (int b = 0; b < 3; ++b)
-              for (int c = 0; c < 3; ++c) {
+              for (int c = 0; c < 3; ++c, ++k27) {
+                node[k27] = -1;
+                plane[k27] = kNoDistance;
                 const int32_t sl = slot[size_t(neighbourOf(l, a, b, c))];
                 if (sl < 0) continue;
                 const uint32_t i =
                     uint32_t(sl) * kBlockNodes + localNode(l.x() + a, l.y() + b, l.z() + c);
-                if (slot_moving_[size_t(sl)]) node[n++] = i;
+                if (slot_moving_[size_t(sl)]) node[k27] = int32_t(i);
                 const SolidNode& g = nodes_[i];
                 if (g.phi < kNoDistance) continue;
                 const Vec3f r(st.fx[0] - float(a), st.fx[1] - float(b), st.fx[2] - float(c));
-                phi = std::max(phi, g.phi + p.dx * (g.dn[0] * r[0] + g.dn[1] * r[1] + g.dn[2] * r[2]));
+                plane[k27] = g.phi + p.dx * (g.dn[0] * r[0] + g.dn[1] * r[1] + g.dn[2] * r[2]);
+                phi = std::max(phi, plane[k27]);
               }
-          const bool known = phi > kNoDistance;
-          if (!known) continue;
-          const float clearance = std::max(0.0f, phi - radius);
-          for (int m = 0; m < n; ++m) gap_[node[m]] = std::min(gap_[node[m]], clearance);
+          if (gaps && phi > kNoDistance) {
+            const float clearance = std::max(0.0f, phi - radius);
+            for (int m = 0; m < 27; ++m)
+              if (node[m] >= 0) gap_[size_t(node[m])] = std::min(gap_[size_t(node[m])], clearance);
+          }
+          if (!fronts) continue;
+          // Its momentum as P2G gave it to each node, w m (v + C (x_i -
+          // x_p)), to the node's whole sums and, where the node's plane is
+          // the particle's nearest (within the tolerance), to its front's.
+          uint32_t mask = 0;
+          bool touches = false;
+          const Mat3f& C = set.C[q];
+          const float m = set.mass;
+          k27 = 0;
+          for (int a = 0; a < 3; ++a)
+            for (int b = 0; b < 3; ++b)
+              for (int c = 0; c < 3; ++c, ++k27) {
+                if (node[k27] < 0) continue;
+                touches = true;
+                const float w = st.w[0][a] * st.w[1][b] * st.w[2][c];
+                const Vec3f r(float(a) - st.fx[0], float(b) - st.fx[1], float(c) - st.fx[2]);
+                const Vec3f mom = (w * m) * (set.v[q] + p.dx * (C * r));
+                FrontSums& f = front_[size_t(node[k27])];
+                f.ma += w * m;
+                for (int e = 0; e < 3; ++e) f.pa[e] += mom[e];
+                if (plane[k27] > kNoDistance && plane[k27] < phi - tol) continue;
+                mask |= 1u << k27;
+                f.mf += w * m;
+                for (int e = 0; e < 3; ++e) f.pf[e] += mom[e];
+              }
+          if (touches) list->push_back({uint32_t(s), q, pb, mask, set.x[q]});
         }
       }
     }

@@ -358,7 +358,7 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
       c.solid = sn.solid > 0 && !c.fixed && pts.body_mass[size_t(sn.solid - 1)] > 0.0
                     ? sn.solid - 1
                     : -1;
-      c.m_mpm = g.m;
+      c.m_mpm = c.m_all = g.m;
       c.m_vol = sn.m;
       // Solids of infinite mass set the node's solid velocity alone: zero
       // for fixed ones, a driven collider's own.
@@ -366,13 +366,27 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
                         : Vec3f(Vec3f(sn.p[0], sn.p[1], sn.p[2]) / sn.m);
       c.v_mpm = Vec3f(g.v[0], g.v[1], g.v[2]);
       c.v_cmp = before ? pre_[i] : c.v_mpm;
+      // Two fields: the collision acts on the front field's mass and
+      // velocity; a node with no front material takes none.
+      if (!front_.empty()) {
+        const FrontSums& f = front_[i];
+        if (f.mf > 0.0f && f.ma > 0.0f) {
+          c.m_mpm = f.mf;
+          c.v_cmp +=
+              Vec3f(f.pf[0], f.pf[1], f.pf[2]) / f.mf - Vec3f(f.pa[0], f.pa[1], f.pa[2]) / f.ma;
+        } else if (f.ma > 0.0f) {
+          c.m_mpm = 0.0f;
+        }
+      }
       // The distance's normal where one solid with a distance holds the
       // node: outside it the closest point's direction, inside the normal
       // of the face the node is nearest; otherwise (nodes of several
       // solids) the summed one.
       const Vec3f nsum(sn.n[0], sn.n[1], sn.n[2]), ndist(sn.dn[0], sn.dn[1], sn.dn[2]);
       const Vec3f nout(sn.on[0], sn.on[1], sn.on[2]);
-      if (by_distance && sn.owner > 0 && sn.phi > 0.0f && nout.norm() > 0.0f)
+      if (c.m_mpm <= 0.0f)
+        c.n = Vec3f::Zero();
+      else if (by_distance && sn.owner > 0 && sn.phi > 0.0f && nout.norm() > 0.0f)
         c.n = nout.normalized();
       else if (by_distance && sn.owner > 0 && !ndist.isZero())
         c.n = ndist;
@@ -432,7 +446,7 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
   // the contract's step 6; further passes (Jacobi) let the body's response
   // feed back, so that material resting on a body does not sink into it by
   // g dt^2 every step. A node whose material is still a gap away from the
-  // solid (measureGaps) lets it approach by that gap in the step.
+  // solid (measureNearSolids) lets it approach by that gap in the step.
   std::vector<Vec3f> dV(nsolids, Vec3f::Zero()), dW(nsolids, Vec3f::Zero());
   // One relaxation of node c against the solid's current velocity.
   auto relax = [&](Shared& c) {
@@ -507,7 +521,7 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
     // Split over processes, every copy of the node takes its velocity.
     if (c.g != kNotHere) {
       GridNode& g = grid[c.g];
-      const Vec3f v = c.v_mpm + c.P / c.m_mpm;
+      const Vec3f v = c.v_mpm + c.P / c.m_all;
       for (int d = 0; d < 3; ++d) g.v[d] = v[d];
     }
     // The opposite impulse goes to the solid: a rigid body's own node to the

@@ -85,12 +85,23 @@ class GridCoupling {
   // `grid` holds MPM velocities after the grid update; it is changed in place.
   void collide(std::vector<GridNode>& grid, const SolidPoints& points, const TransferParams& p);
 
-  // The gap between the MPM material and the solids at every node: the
+  // With `gaps`, the gap between the MPM material and the solids at every node: the
   // smallest clearance (distance to the solids' surface less half a
   // particle spacing, never negative) of the particles whose stencils
   // reach the node, their distance interpolated from the nodes' own.
-  void measureGaps(const std::vector<ParticleSet>& sets, const GridLayout& layout,
-                   const TransferParams& p);
+  //
+  // With `fronts`, the same pass prepares two fields on moving solids'
+  // nodes (sim/coupling/front_fields.cpp): each node's sums of the
+  // material in front of its face and of all of it.
+  void measureNearSolids(const std::vector<ParticleSet>& sets, const GridLayout& layout,
+                         const TransferParams& p, bool gaps, bool fronts);
+  // After collide(): each field's velocity; after the MPM gather,
+  // correctFronts() gives each particle near a moving solid its own field's
+  // velocity where a node has two.
+  void finishFronts(const std::vector<GridNode>& grid);
+  void correctFronts(std::vector<ParticleSet>& sets, const GridLayout& layout,
+                     const TransferParams& p) const;
+  bool frontsOn() const { return !front_.empty(); }
 
   // Step 8: each point's velocity change from the grid (points.dv), either
   // the opposite of the impulses the MPM side got (momentum conserving) or
@@ -141,6 +152,7 @@ class GridCoupling {
     int32_t fixed_solid;  // the one fixed solid it holds, or -1
     bool fixed;
     float m_mpm, m_vol, mu;
+    float m_all;  // the node's whole MPM mass (m_mpm is its front field's where fields split)
     Vec3f v_mpm, v_cmp, v_vol, n, x;  // x: world position
     Vec3f P = Vec3f::Zero(), T = Vec3f::Zero(), dP = Vec3f::Zero();
     float lambda = 0.0f;  // accumulated normal impulse
@@ -158,7 +170,7 @@ class GridCoupling {
   std::vector<SolidNode> nodes_;       // per slot * 64 + node
   std::vector<Vec3f> delta_;           // per slot node: velocity change felt by the solids
   std::vector<uint8_t> slot_moving_;  // per slot: a moving or driven solid reaches it
-  std::vector<float> gap_;             // per slot node: the material's clearance (measureGaps)
+  std::vector<float> gap_;            // per slot node: the material's clearance (measureNearSolids)
   std::vector<Vec3f> pre_;             // per slot node: MPM velocity before the update
   std::vector<uint32_t> slot_block_;   // per slot: grid block index
   std::vector<int32_t> block_slot_;    // per grid block: slot or -1
@@ -167,9 +179,9 @@ class GridCoupling {
   std::array<std::vector<uint32_t>, 8> colour_blocks_;
   std::vector<uint64_t> point_key_;    // per point: base block key
   void buildFixed(const SolidPoints& points, const TransferParams& p);
-  // measureGaps' sums over this process's particles.
-  void measureOwnGaps(const std::vector<ParticleSet>& sets, const GridLayout& layout,
-                      const TransferParams& p);
+  // measureNearSolids' pass over this process's particles.
+  void scanNearSolids(const std::vector<ParticleSet>& sets, const GridLayout& layout,
+                      const TransferParams& p, bool gaps, bool fronts);
   void addNodeLoad(int32_t solid, const Shared& c, const Vec3f& impulse);
   // The normal impulses at moving rigid bodies' nodes (moving_), solved
   // for each body's velocity change (dV, dW) by Newton's method; returns
@@ -191,6 +203,19 @@ class GridCoupling {
   std::vector<Vec3f> change_;          // their nodes' changes, 64 per block
 
   std::vector<Shared> shared_;
+  struct FrontSums {
+    float mf = 0.0f, pf[3] = {0, 0, 0}, ma = 0.0f, pa[3] = {0, 0, 0};
+  };
+  struct FrontParticle {
+    uint32_t set, index, block, mask;  // mask: bit k set where stencil node k is in front
+    Vec3f x;                           // position the gather used
+  };
+  std::vector<FrontSums> front_;           // per slot node
+  std::vector<Vec3f> front_dv_, rest_dv_;  // per slot node: field velocity less the grid's
+  std::vector<uint64_t> split_;            // per slot: bit k, node k holds two fields
+  std::vector<std::vector<FrontParticle>> front_lists_;  // per thread of the scan
+  void correctFront(std::vector<ParticleSet>& sets, const GridLayout& layout,
+                    const TransferParams& p, float c_scale, const FrontParticle& fp) const;
   std::vector<uint32_t> moving_;  // shared nodes of one moving rigid body
   bool fixed_built_ = false;
   std::vector<uint64_t> fixed_keys_;     // grid blocks fixed solids reach, sorted
