@@ -183,8 +183,8 @@ SolverDesc parseSolver(const ParamDict& root) {
     if (out.front_fields && out.transfer != TransferScheme::Apic)
       s->fail("front_fields", "applies only with transfer \"apic\", and transfer is " +
                                   inQuotes(nameOf(kTransfers, out.transfer)));
-    out.front_tolerance =
-        s->getDouble("front_tolerance", out.front_tolerance, Range::closed(0, 1.5));
+    out.front_angle_deg =
+        s->getDouble("front_angle_deg", out.front_angle_deg, Range::closed(0, 90));
   }
   out.contact_velocity = s->getEnum("contact_velocity", out.contact_velocity, kContactVelocities);
   out.solid_readback = s->getEnum("solid_readback", out.solid_readback, kReadbacks);
@@ -209,7 +209,7 @@ SolverDesc parseSolver(const ParamDict& root) {
   }
   s->checkUnknownKeys({}, [&](const std::string& key) -> std::string {
     if (key == "contact_reach" || key == "contact_normal" || key == "rigid_collision" ||
-        key == "contact_gap" || key == "front_fields" || key == "front_tolerance")
+        key == "contact_gap" || key == "front_fields" || key == "front_angle_deg")
       return std::string("it applies only when coupling is \"three_grid\", and coupling is ") +
              inQuotes(nameOf(kCouplings, out.coupling));
     if (key != "flip_ratio") return {};

@@ -79,7 +79,7 @@ struct SolverDesc {
   // the samples). 1.5 takes every node the samples' stencils reach.
   double contact_reach = 1.5;
   bool front_fields = false;      // two fields on moving solids' nodes (front_fields.cpp)
-  double front_tolerance = 0.05;  // cells: a particle is in front of a node's face within it
+  double front_angle_deg = 45.0;  // a node's face within it of a particle's nearest: in front
   ContactNormal contact_normal = ContactNormal::Distance;
   RigidCollision rigid_collision = RigidCollision::Newton;
   // Three grids: material a gap away from a rigid solid may close it in a

@@ -191,9 +191,9 @@ namespace {
 // 3-cell slab of half water's density rises to the surface and floats at
 // Archimedes' draft with solver.front_fields: the water beside the slab
 // slips past its edges instead of being dragged along (bench/RESULTS.md,
-// "Two fields at a face's edges"). Measured: surfaced by 1.25 s, draft
-// -0.12 dx at 2 s (0.03 m/s the fastest the single field lets it rise:
-// its bottom still 0.104 m, 3.7 cells under its floating position, at 2 s).
+// "Two fields at a face's edges"). Measured: draft 0.043 m at 1 s (from
+// 0.140; Archimedes 0.030), its mean over 2-2.5 s within 0.2 dx. With one
+// field it rises at 0.025 m/s: its draft at 1 s is still 0.117 m.
 TEST(SubmergedSlab, RisesAndFloatsWithFrontFields) {
   World w = wideSubmergedSlab("submerged_fronts", 0.5, {{"front_fields", true}});
   const double start = slabBottom(w, 3), archimedes = 0.5 * 3 * kDx;
@@ -202,12 +202,17 @@ TEST(SubmergedSlab, RisesAndFloatsWithFrontFields) {
   Solver solver(w);
   solver.advanceTo(1.0);
   const double draft1 = draft();
-  solver.advanceTo(2.0);
-  const double error = (draft() - archimedes) / kDx;
+  // Then its mean draft over 2-2.5 s: it still bobs a little.
+  double mean = 0;
+  for (int k = 0; k < 5; ++k) {
+    solver.advanceTo(2.1 + 0.1 * k);
+    mean += draft() / 5;
+  }
+  const double error = (mean - archimedes) / kDx;
   std::printf(
-      "front fields, ratio 0.5: draft %.4f (bottom %.4f) -> %.4f (1 s) -> %.4f m (2 s), "
-      "Archimedes %.4f, %+.2f dx\n",
-      draft0, start, draft1, draft(), archimedes, error);
+      "front fields, ratio 0.5: draft %.4f (bottom %.4f) -> %.4f (1 s) -> %.4f m (mean "
+      "over 2-2.5 s), Archimedes %.4f, %+.2f dx\n",
+      draft0, start, draft1, mean, archimedes, error);
   // Most of the way up within the first second (0.1 m/s; 0.025 m/s with
   // one field), then floating at its draft.
   EXPECT_LT(draft1 - archimedes, 0.5 * (draft0 - archimedes));

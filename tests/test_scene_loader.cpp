@@ -407,8 +407,8 @@ TEST_F(SceneLoaderTest, DefaultsAreTheDocumentedOnes) {
        [](const SceneDesc& s) { return json(s.solver.contact_reach); }},
       {"solver", "front_fields", "/solver/front_fields",
        [](const SceneDesc& s) { return json(s.solver.front_fields); }},
-      {"solver", "front_tolerance", "/solver/front_tolerance",
-       [](const SceneDesc& s) { return json(s.solver.front_tolerance); }},
+      {"solver", "front_angle_deg", "/solver/front_angle_deg",
+       [](const SceneDesc& s) { return json(s.solver.front_angle_deg); }},
       {"solver", "contact_normal", "/solver/contact_normal",
        [](const SceneDesc& s) { return json(int(s.solver.contact_normal)); }},
       {"solver", "coupling_iterations", "/solver/coupling_iterations",
@@ -773,9 +773,9 @@ TEST_F(SceneLoaderTest, FrontFieldsOnlyWithThreeGridsAndApic) {
   EXPECT_FALSE(load(exampleScene()).solver.front_fields);
   const json on = with(exampleScene(), "/solver/front_fields", true);
   EXPECT_TRUE(load(on).solver.front_fields);
-  EXPECT_EQ(load(with(on, "/solver/front_tolerance", 0.2)).solver.front_tolerance, 0.2);
-  EXPECT_TRUE(contains(error(with(on, "/solver/front_tolerance", 2.0)),
-                       {"solver.front_tolerance", "[0, 1.5]"}));
+  EXPECT_EQ(load(with(on, "/solver/front_angle_deg", 30)).solver.front_angle_deg, 30.0);
+  EXPECT_TRUE(contains(error(with(on, "/solver/front_angle_deg", 120)),
+                       {"solver.front_angle_deg", "[0, 90]"}));
   EXPECT_TRUE(contains(error(with(exampleScene(), "/solver/front_fields", "yes")),
                        {"solver.front_fields"}));
   EXPECT_TRUE(contains(error(with(on, "/solver/transfer", "flip")),

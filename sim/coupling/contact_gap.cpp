@@ -54,7 +54,7 @@ void GridCoupling::measureNearSolids(const std::vector<ParticleSet>& sets, const
 
 void GridCoupling::scanNearSolids(const std::vector<ParticleSet>& sets, const GridLayout& layout,
                                   const TransferParams& p, bool gaps, bool fronts) {
-  const float tol = float(solver_.front_tolerance) * p.dx;
+  const float cos_front = float(std::cos(solver_.front_angle_deg * M_PI / 180.0));
   if (fronts) front_lists_.resize(size_t(omp_get_max_threads()));
   // One parallel region for the eight colours (a barrier between them): a
   // region per colour cost a wake-up of the sleeping threads each.
@@ -95,6 +95,7 @@ void GridCoupling::scanNearSolids(const std::vector<ParticleSet>& sets, const Gr
           int32_t node[27];  // slot node of a moving solid, or -1
           float plane[27];   // each node's plane distance at the particle
           float phi = -kFar;
+          int nearest = -1;  // the node whose plane gave phi
           int k27 = 0;
           for (int a = 0; a < 3; ++a)
             for (int b = 0; b < 3; ++b)
@@ -105,12 +106,15 @@ void GridCoupling::scanNearSolids(const std::vector<ParticleSet>& sets, const Gr
                 if (sl < 0) continue;
                 const uint32_t i =
                     uint32_t(sl) * kBlockNodes + localNode(l.x() + a, l.y() + b, l.z() + c);
-                if (slot_moving_[size_t(sl)]) node[k27] = int32_t(i);
                 const SolidNode& g = nodes_[i];
+                if (slot_moving_[size_t(sl)]) node[k27] = int32_t(i);
                 if (g.phi < kNoDistance) continue;
                 const Vec3f r(st.fx[0] - float(a), st.fx[1] - float(b), st.fx[2] - float(c));
                 plane[k27] = g.phi + p.dx * (g.dn[0] * r[0] + g.dn[1] * r[1] + g.dn[2] * r[2]);
-                phi = std::max(phi, plane[k27]);
+                if (plane[k27] > phi) {
+                  phi = plane[k27];
+                  nearest = int(i);
+                }
               }
           if (gaps && phi > kNoDistance) {
             const float clearance = std::max(0.0f, phi - radius);
@@ -119,12 +123,16 @@ void GridCoupling::scanNearSolids(const std::vector<ParticleSet>& sets, const Gr
           }
           if (!fronts) continue;
           // Its momentum as P2G gave it to each node, w m (v + C (x_i -
-          // x_p)), to the node's whole sums and, where the node's plane is
-          // the particle's nearest (within the tolerance), to its front's.
+          // x_p)), to the node's whole sums and, where the node's face
+          // faces the way the particle's nearest does, to its front's.
+          // With o the node's offset in the stencil, w m (v + C dx (o -
+          // fx)) = w (mv0 + D o): three columns added per node.
           uint32_t mask = 0;
           bool touches = false;
-          const Mat3f& C = set.C[q];
           const float m = set.mass;
+          const float* dn = nodes_[size_t(nearest >= 0 ? nearest : 0)].dn;
+          const Mat3f D = (m * p.dx) * set.C[q];
+          const Vec3f mv0 = m * set.v[q] - D * Vec3f(st.fx[0], st.fx[1], st.fx[2]);
           k27 = 0;
           for (int a = 0; a < 3; ++a)
             for (int b = 0; b < 3; ++b)
@@ -132,12 +140,17 @@ void GridCoupling::scanNearSolids(const std::vector<ParticleSet>& sets, const Gr
                 if (node[k27] < 0) continue;
                 touches = true;
                 const float w = st.w[0][a] * st.w[1][b] * st.w[2][c];
-                const Vec3f r(float(a) - st.fx[0], float(b) - st.fx[1], float(c) - st.fx[2]);
-                const Vec3f mom = (w * m) * (set.v[q] + p.dx * (C * r));
+                const Vec3f mom =
+                    w * (mv0 + float(a) * D.col(0) + float(b) * D.col(1) + float(c) * D.col(2));
                 FrontSums& f = front_[size_t(node[k27])];
                 f.ma += w * m;
                 for (int e = 0; e < 3; ++e) f.pa[e] += mom[e];
-                if (plane[k27] > kNoDistance && plane[k27] < phi - tol) continue;
+                // In front where the node's face faces the way the
+                // particle's nearest face does (or either is unknown).
+                if (nearest >= 0 && plane[k27] > kNoDistance) {
+                  const float* dk = nodes_[size_t(node[k27])].dn;
+                  if (dk[0] * dn[0] + dk[1] * dn[1] + dk[2] * dn[2] < cos_front) continue;
+                }
                 mask |= 1u << k27;
                 f.mf += w * m;
                 for (int e = 0; e < 3; ++e) f.pf[e] += mom[e];
