@@ -612,6 +612,22 @@ TEST_F(Mpi, SingleGridCouplingIsRefusedByName) {
   EXPECT_FALSE(fs::exists(dir / "out" / "particles"));
 }
 
+TEST_F(Mpi, FrontFieldsAreRefusedByName) {
+  const fs::path dir = test::tempDir("refused_fronts");
+  json j = everyMaterial(2);
+  j["solver"] = {{"front_fields", true}};
+  j["objects"].push_back(
+      {{"name", "ball"},
+       {"kind", "rigid"},
+       {"density", 500},
+       {"shape", {{"sphere", {{"center", {0.3, 0.3, 0.1}}, {"radius", 0.04}}}}}});
+  const std::string scene = test::writeScene(dir, j);
+  const test::CliResult r = run(dir, scene, dir / "out", mpirun(2));
+  EXPECT_EQ(r.status, 2) << r.err;
+  EXPECT_NE(r.err.find("solver.front_fields"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "out" / "particles"));
+}
+
 #else
 
 TEST(Mpi, BuiltWithoutMpi) {

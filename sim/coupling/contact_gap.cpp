@@ -34,6 +34,9 @@ void GridCoupling::measureNearSolids(const std::vector<ParticleSet>& sets, const
   // anyway.
   const bool moving =
       std::find(slot_moving_.begin(), slot_moving_.end(), uint8_t(1)) != slot_moving_.end();
+  // Two fields stay within one process: a split run refuses them (their
+  // sums would have to cross the cut in colour order, as P2G's do).
+  fronts = fronts && !domain_;
   gap_.clear();
   front_.clear();
   for (auto& list : front_lists_) list.clear();
@@ -121,7 +124,9 @@ void GridCoupling::scanNearSolids(const std::vector<ParticleSet>& sets, const Gr
             for (int m = 0; m < 27; ++m)
               if (node[m] >= 0) gap_[size_t(node[m])] = std::min(gap_[size_t(node[m])], clearance);
           }
-          if (!fronts) continue;
+          // Sleeping material keeps its sums at rest and gathers nothing:
+          // it stays one field.
+          if (!fronts || layout.sleeping(pb)) continue;
           // Its momentum as P2G gave it to each node, w m (v + C (x_i -
           // x_p)), to the node's whole sums and, where the node's face
           // faces the way the particle's nearest does, to its front's.

@@ -653,7 +653,9 @@ size_t GridCoupling::bytes() const {
   return nodes_.capacity() * sizeof(SolidNode) + delta_.capacity() * sizeof(Vec3f) +
          pre_.capacity() * sizeof(Vec3f) + slot_block_.capacity() * 4 + block_slot_.capacity() * 4 +
          order_.capacity() * 4 + blocks_.capacity() * sizeof(PointBlock) +
-         point_key_.capacity() * 8;
+         point_key_.capacity() * 8 + front_.capacity() * sizeof(FrontSums) +
+         (front_dv_.capacity() + rest_dv_.capacity()) * sizeof(Vec3f) + split_.capacity() * 8 +
+         frontListBytes();
 }
 
 }  // namespace triad
