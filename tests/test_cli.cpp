@@ -3,6 +3,7 @@
 #include <sys/wait.h>
 
 #include <fstream>
+#include <initializer_list>
 #include <sstream>
 
 #include "cli_fixture.h"
@@ -71,11 +72,9 @@ TEST(Cli, SameBytesForOneAndTwoThreads) {
             slurp(dir / "t1/particles/particles.0003.ply"));
 }
 
-// The same with rigid bodies: a box thrown into the sand and against a
-// wall, a ball falling on it, and a fixed sphere in the way.
-TEST(Cli, SameBytesForOneAndTwoThreadsWithRigidBodies) {
-  const fs::path dir = test::tempDir("cli_threads_rigid");
-  json j = mixedScene();
+// The mixed scene with rigid bodies: a box thrown into the sand and
+// against a wall, a ball falling on it, and a fixed sphere in the way.
+json withRigidBodies(json j) {
   auto rigid = [](const char* name, json shape, double density, std::array<double, 3> v) {
     return json{{"name", name}, {"kind", "rigid"}, {"density", density}, {"friction", 0.4},
                 {"shape", shape}, {"velocity", v}};
@@ -88,13 +87,20 @@ TEST(Cli, SameBytesForOneAndTwoThreadsWithRigidBodies) {
                     {0, 0, 0});
   post["fixed"] = true;
   j["objects"].push_back(post);
+  return j;
+}
+
+// Runs scene j on 1 and 2 threads and expects the same bytes in `files`,
+// and the crate moved.
+void expectSameBytesWithBodies(const std::string& tag, const json& j,
+                               std::initializer_list<const char*> files) {
+  const fs::path dir = test::tempDir(tag);
   const std::string scene = test::writeScene(dir, j);
   const Result one = triad(dir, "run " + scene + " --threads 1 --quiet --out " + (dir / "t1").string());
   ASSERT_EQ(one.status, 0) << one.err;
   const Result two = triad(dir, "run " + scene + " --threads 2 --quiet --out " + (dir / "t2").string());
   ASSERT_EQ(two.status, 0) << two.err;
-  for (const char* name : {"particles/particles.0003.ply", "bodies/rigid_states.csv",
-                           "bodies/crate.0003.ply", "bodies/ball.0003.ply"}) {
+  for (const char* name : files) {
     const std::string a = slurp(dir / "t1" / name), b = slurp(dir / "t2" / name);
     ASSERT_GT(a.size(), 100u) << name;
     EXPECT_TRUE(a == b) << name << " differs between 1 and 2 threads";
@@ -102,42 +108,27 @@ TEST(Cli, SameBytesForOneAndTwoThreadsWithRigidBodies) {
   EXPECT_NE(slurp(dir / "t1/bodies/crate.0000.ply"), slurp(dir / "t1/bodies/crate.0003.ply"));
 }
 
+TEST(Cli, SameBytesForOneAndTwoThreadsWithRigidBodies) {
+  expectSameBytesWithBodies("cli_threads_rigid", withRigidBodies(mixedScene()),
+                            {"particles/particles.0003.ply", "bodies/rigid_states.csv",
+                             "bodies/crate.0003.ply", "bodies/ball.0003.ply"});
+}
+
 // The same with two fields on the solids' nodes (solver.front_fields): the
 // scan's node sums go colour by colour, and every particle is corrected
-// alone. The crate and the ball of the test above, and an elastic block.
+// alone. The rigid bodies above, and an elastic block.
 TEST(Cli, SameBytesForOneAndTwoThreadsWithFrontFields) {
-  const fs::path dir = test::tempDir("cli_threads_fronts");
-  json j = mixedScene();
+  json j = withRigidBodies(mixedScene());
   j["solver"]["front_fields"] = true;
-  auto rigid = [](const char* name, json shape, double density, std::array<double, 3> v) {
-    return json{{"name", name},    {"kind", "rigid"}, {"density", density},
-                {"friction", 0.4}, {"shape", shape},  {"velocity", v}};
-  };
-  j["objects"].push_back(
-      rigid("crate", test::box({0.25, 0.1, 0.2}, {0.33, 0.16, 0.28}), 600, {2, -1, 0}));
-  j["objects"].push_back(rigid("ball",
-                               json{{"sphere", {{"center", {0.3, 0.3, 0.24}}, {"radius", 0.04}}}},
-                               3000, {0, -2, 0}));
   j["objects"].push_back({{"name", "block"},
                           {"kind", "elastic"},
                           {"material", "jelly"},
                           {"friction", 0.4},
                           {"shape", test::box({0.2, 0.25, 0.05}, {0.28, 0.33, 0.13})},
                           {"velocity", {0, -2, 0}}});
-  const std::string scene = test::writeScene(dir, j);
-  const Result one =
-      triad(dir, "run " + scene + " --threads 1 --quiet --out " + (dir / "t1").string());
-  ASSERT_EQ(one.status, 0) << one.err;
-  const Result two =
-      triad(dir, "run " + scene + " --threads 2 --quiet --out " + (dir / "t2").string());
-  ASSERT_EQ(two.status, 0) << two.err;
-  for (const char* name : {"particles/particles.0003.ply", "bodies/rigid_states.csv",
-                           "bodies/crate.0003.ply", "bodies/block.0003.ply"}) {
-    const std::string a = slurp(dir / "t1" / name), b = slurp(dir / "t2" / name);
-    ASSERT_GT(a.size(), 100u) << name;
-    EXPECT_TRUE(a == b) << name << " differs between 1 and 2 threads";
-  }
-  EXPECT_NE(slurp(dir / "t1/bodies/crate.0000.ply"), slurp(dir / "t1/bodies/crate.0003.ply"));
+  expectSameBytesWithBodies("cli_threads_fronts", j,
+                            {"particles/particles.0003.ply", "bodies/rigid_states.csv",
+                             "bodies/crate.0003.ply", "bodies/block.0003.ply"});
 }
 
 // The same with an elastic solid falling into the sand: its element

@@ -595,10 +595,10 @@ TEST_F(Mpi, SleepingMaterialSleepsAndWakesAsUnderOneProcess) {
 }
 
 // What the split does not run yet is refused by name, once, before any work.
-TEST_F(Mpi, SingleGridCouplingIsRefusedByName) {
-  const fs::path dir = test::tempDir("refused");
+void expectRefused(const std::string& tag, const json& solver, const std::string& key) {
+  const fs::path dir = test::tempDir(tag);
   json j = everyMaterial(2);
-  j["solver"] = {{"coupling", "single"}};
+  j["solver"] = solver;
   j["objects"].push_back(
       {{"name", "ball"},
        {"kind", "rigid"},
@@ -607,25 +607,17 @@ TEST_F(Mpi, SingleGridCouplingIsRefusedByName) {
   const std::string scene = test::writeScene(dir, j);
   const test::CliResult r = run(dir, scene, dir / "out", mpirun(2));
   EXPECT_EQ(r.status, 2) << r.err;
-  EXPECT_NE(r.err.find("solver.coupling"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find(key), std::string::npos) << r.err;
   EXPECT_NE(r.err.find(scene), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(dir / "out" / "particles"));
 }
 
+TEST_F(Mpi, SingleGridCouplingIsRefusedByName) {
+  expectRefused("refused", {{"coupling", "single"}}, "solver.coupling");
+}
+
 TEST_F(Mpi, FrontFieldsAreRefusedByName) {
-  const fs::path dir = test::tempDir("refused_fronts");
-  json j = everyMaterial(2);
-  j["solver"] = {{"front_fields", true}};
-  j["objects"].push_back(
-      {{"name", "ball"},
-       {"kind", "rigid"},
-       {"density", 500},
-       {"shape", {{"sphere", {{"center", {0.3, 0.3, 0.1}}, {"radius", 0.04}}}}}});
-  const std::string scene = test::writeScene(dir, j);
-  const test::CliResult r = run(dir, scene, dir / "out", mpirun(2));
-  EXPECT_EQ(r.status, 2) << r.err;
-  EXPECT_NE(r.err.find("solver.front_fields"), std::string::npos) << r.err;
-  EXPECT_FALSE(fs::exists(dir / "out" / "particles"));
+  expectRefused("refused_fronts", {{"front_fields", true}}, "solver.front_fields");
 }
 
 #else
