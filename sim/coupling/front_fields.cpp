@@ -6,7 +6,6 @@
 // over the step (bench/RESULTS.md, "Why moving bodies stall"). Here the
 // collision acts on the front field alone, and each particle gathers its
 // own field's velocity, so the water beside a body slips past it.
-#include <algorithm>
 #include <array>
 #include <cmath>
 
@@ -58,47 +57,45 @@ void GridCoupling::correctFronts(std::vector<ParticleSet>& sets, const GridLayou
 void GridCoupling::correctFront(std::vector<ParticleSet>& sets, const GridLayout& layout,
                                 const TransferParams& p, float c_scale,
                                 const FrontParticle& fp) const {
-  {
-    ParticleSet& set = sets[fp.set];
-    const size_t q = fp.index;
-    const Stencil st = stencilAt(fp.x, p.shifted_origin, p.inv_dx);
-    const Vec3i l(st.base.x() & (kBlockSize - 1), st.base.y() & (kBlockSize - 1),
-                  st.base.z() & (kBlockSize - 1));
-    const size_t pb = fp.block;
-    // Only nodes with two fields change anything: most particles have none.
-    std::array<int32_t, 8> slot;
-    uint64_t any = 0;
-    for (int d = 0; d < 8; ++d) {
-      slot[size_t(d)] = block_slot_[layout.neighbours[pb][size_t(d)]];
-      if (slot[size_t(d)] >= 0) any |= split_[size_t(slot[size_t(d)])];
-    }
-    if (any == 0) return;
-    Vec3f dv = Vec3f::Zero();
-    Mat3f dB = Mat3f::Zero();
-    int k = 0;
-    for (int a = 0; a < 3; ++a)
-      for (int b = 0; b < 3; ++b)
-        for (int c = 0; c < 3; ++c, ++k) {
-          const int32_t sl = slot[size_t(neighbourOf(l, a, b, c))];
-          if (sl < 0) continue;
-          const int local = localNode(l.x() + a, l.y() + b, l.z() + c);
-          if (((split_[size_t(sl)] >> local) & 1u) == 0) continue;
-          const size_t i = size_t(sl) * kBlockNodes + size_t(local);
-          const Vec3f& delta = (fp.mask >> k) & 1u ? front_dv_[i] : rest_dv_[i];
-          const float w = st.w[0][a] * st.w[1][b] * st.w[2][c];
-          const Vec3f r(float(a) - st.fx[0], float(b) - st.fx[1], float(c) - st.fx[2]);
-          dv += w * delta;
-          dB += w * delta * r.transpose();
-        }
-    const Mat3f dC = c_scale * dB;
-    set.v[q] += dv;
-    set.C[q] += dC;
-    set.x[q] = (set.x[q] + p.dt * dv).cwiseMax(p.domain_lo).cwiseMin(p.domain_hi);
-    if (set.usesF())
-      set.F[q] = (Mat3f::Identity() + p.dt * dC) * set.F[q];
-    else if (set.usesJ() && set.F.empty())
-      set.J[q] *= 1.0f + p.dt * dC.trace();
+  ParticleSet& set = sets[fp.set];
+  const size_t q = fp.index;
+  const Stencil st = stencilAt(fp.x, p.shifted_origin, p.inv_dx);
+  const Vec3i l(st.base.x() & (kBlockSize - 1), st.base.y() & (kBlockSize - 1),
+                st.base.z() & (kBlockSize - 1));
+  const size_t pb = fp.block;
+  // Only nodes with two fields change anything: most particles have none.
+  std::array<int32_t, 8> slot;
+  uint64_t any = 0;
+  for (int d = 0; d < 8; ++d) {
+    slot[size_t(d)] = block_slot_[layout.neighbours[pb][size_t(d)]];
+    if (slot[size_t(d)] >= 0) any |= split_[size_t(slot[size_t(d)])];
   }
+  if (any == 0) return;
+  Vec3f dv = Vec3f::Zero();
+  Mat3f dB = Mat3f::Zero();
+  int k = 0;
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b)
+      for (int c = 0; c < 3; ++c, ++k) {
+        const int32_t sl = slot[size_t(neighbourOf(l, a, b, c))];
+        if (sl < 0) continue;
+        const int local = localNode(l.x() + a, l.y() + b, l.z() + c);
+        if (((split_[size_t(sl)] >> local) & 1u) == 0) continue;
+        const size_t i = size_t(sl) * kBlockNodes + size_t(local);
+        const Vec3f& delta = (fp.mask >> k) & 1u ? front_dv_[i] : rest_dv_[i];
+        const float w = st.w[0][a] * st.w[1][b] * st.w[2][c];
+        const Vec3f r(float(a) - st.fx[0], float(b) - st.fx[1], float(c) - st.fx[2]);
+        dv += w * delta;
+        dB += w * delta * r.transpose();
+      }
+  const Mat3f dC = c_scale * dB;
+  set.v[q] += dv;
+  set.C[q] += dC;
+  set.x[q] = (set.x[q] + p.dt * dv).cwiseMax(p.domain_lo).cwiseMin(p.domain_hi);
+  if (set.usesF())
+    set.F[q] = (Mat3f::Identity() + p.dt * dC) * set.F[q];
+  else if (set.usesJ())  // water: J alone
+    set.J[q] *= 1.0f + p.dt * dC.trace();
 }
 
 }  // namespace triad
