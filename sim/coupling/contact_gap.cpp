@@ -55,6 +55,32 @@ void GridCoupling::measureNearSolids(const std::vector<ParticleSet>& sets, const
                 &gap_[s * kBlockNodes]);
 }
 
+uint64_t GridCoupling::cellsNearSurface(const std::array<int32_t, 8>& slot) const {
+  // Which of the 6^3 nodes a block's stencils reach hold a distance.
+  constexpr int kReach = kBlockSize + 2;
+  bool has[kReach][kReach][kReach];
+  for (int x = 0; x < kReach; ++x)
+    for (int y = 0; y < kReach; ++y)
+      for (int z = 0; z < kReach; ++z) {
+        const int32_t sl =
+            slot[size_t(((x >> kBlockBits) << 2) | ((y >> kBlockBits) << 1) | (z >> kBlockBits))];
+        has[x][y][z] =
+            sl >= 0 && nodes_[uint32_t(sl) * kBlockNodes + localNode(x, y, z)].phi >= kNoDistance;
+      }
+  // A base cell is near when any node of its 3^3 stencil has one.
+  uint64_t near = 0;
+  for (int x = 0; x < kBlockSize; ++x)
+    for (int y = 0; y < kBlockSize; ++y)
+      for (int z = 0; z < kBlockSize; ++z) {
+        bool any = false;
+        for (int a = 0; a < 3 && !any; ++a)
+          for (int b = 0; b < 3 && !any; ++b)
+            for (int c = 0; c < 3 && !any; ++c) any = has[x + a][y + b][z + c];
+        if (any) near |= uint64_t(1) << localNode(x, y, z);
+      }
+  return near;
+}
+
 void GridCoupling::scanNearSolids(const std::vector<ParticleSet>& sets, const GridLayout& layout,
                                   const TransferParams& p, bool gaps, bool fronts) {
   const float cos_front = float(std::cos(solver_.front_angle_deg * M_PI / 180.0));
@@ -85,6 +111,12 @@ void GridCoupling::scanNearSolids(const std::vector<ParticleSet>& sets, const Gr
         any |= slot[size_t(d)] >= 0 && slot_moving_[size_t(slot[size_t(d)])];
       }
       if (!any) continue;
+      // Most particles here lie farther from the solids than any node's
+      // distance reaches: their stencils hold no node with a distance, so
+      // they give no node a gap. Without fronts, skip them by their base
+      // cell.
+      const uint64_t near = fronts ? ~uint64_t(0) : cellsNearSurface(slot);
+      if (near == 0) continue;
       for (size_t s = 0; s < sets.size(); ++s) {
         const ParticleSet& set = sets[s];
         const float radius = 0.5f * std::cbrt(set.volume);
@@ -92,6 +124,7 @@ void GridCoupling::scanNearSolids(const std::vector<ParticleSet>& sets, const Gr
           const Stencil st = stencilAt(set.x[q], p.shifted_origin, p.inv_dx);
           const Vec3i l(st.base.x() & (kBlockSize - 1), st.base.y() & (kBlockSize - 1),
                         st.base.z() & (kBlockSize - 1));
+          if (!(near >> localNode(l.x(), l.y(), l.z()) & 1)) continue;
           // The particle's distance: the envelope of the planes its nodes'
           // distances came from (phi_i + n_i . (x_p - x_i), the largest),
           // exact beside a face, never more than the true distance.

@@ -179,6 +179,9 @@ class GridCoupling {
   std::array<std::vector<uint32_t>, 8> colour_blocks_;
   std::vector<uint64_t> point_key_;    // per point: base block key
   void buildFixed(const SolidPoints& points, const TransferParams& p);
+  // Bit localNode(cell) set where a particle with that base cell in the
+  // block whose neighbours' slots are `slot` reaches a node with a distance.
+  uint64_t cellsNearSurface(const std::array<int32_t, 8>& slot) const;
   // measureNearSolids' pass over this process's particles.
   void scanNearSolids(const std::vector<ParticleSet>& sets, const GridLayout& layout,
                       const TransferParams& p, bool gaps, bool fronts);

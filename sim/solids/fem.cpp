@@ -169,13 +169,35 @@ void elementForces(const FemBody& b, const std::vector<Vec3d>& y, const std::vec
         }
       },
       b.model);
-  f.assign(y.size(), Vec3d::Zero());
-  for (size_t t = 0; t < tets.size(); ++t) {
-    const auto& n = tets[t];
-    for (int k = 0; k < 3; ++k) {
-      f[n[k + 1]] += b.h_[t].col(k);
-      f[n[0]] -= b.h_[t].col(k);
+  // Each node gathers its elements' forces (H's columns on corners 1..3,
+  // minus their sum on corner 0), in element order: the sums of a serial
+  // scatter over the elements, bit for bit, on any number of threads.
+  if (b.incidence_start_.size() != y.size() + 1) {
+    b.incidence_start_.assign(y.size() + 1, 0);
+    for (const auto& n : tets)
+      for (int k = 0; k < 4; ++k) ++b.incidence_start_[size_t(n[k]) + 1];
+    for (size_t i = 0; i < y.size(); ++i) b.incidence_start_[i + 1] += b.incidence_start_[i];
+    b.incidence_.resize(b.incidence_start_.back());
+    std::vector<uint32_t> cursor(b.incidence_start_.begin(), b.incidence_start_.end() - 1);
+    for (size_t t = 0; t < tets.size(); ++t)
+      for (int k = 0; k < 4; ++k) b.incidence_[cursor[size_t(tets[t][k])]++] = uint32_t(4 * t + k);
+  }
+  f.resize(y.size());
+#pragma omp parallel for schedule(static) if (y.size() > 2048)
+  for (int64_t i = 0; i < int64_t(y.size()); ++i) {
+    Vec3d sum = Vec3d::Zero();
+    for (uint32_t e = b.incidence_start_[size_t(i)]; e < b.incidence_start_[size_t(i) + 1]; ++e) {
+      const Mat3d& h = b.h_[b.incidence_[e] >> 2];
+      const uint32_t corner = b.incidence_[e] & 3;
+      if (corner == 0) {
+        sum -= h.col(0);
+        sum -= h.col(1);
+        sum -= h.col(2);
+      } else {
+        sum += h.col(int(corner) - 1);
+      }
     }
+    f[size_t(i)] = sum;
   }
 }
 

@@ -70,6 +70,10 @@ struct FemBody {
   std::vector<double> volume;   // per element: rest volume
   std::vector<char> pinned;     // nodes held in place (boundary conditions)
   mutable std::vector<Mat3d> h_;  // per element force matrices (scratch of forces())
+  // Per node, the elements that hold it, as 4 t + its corner, in element
+  // order (CSR, built by the first forces()): each node sums its forces on
+  // its own, in the order a serial loop over the elements would.
+  mutable std::vector<uint32_t> incidence_start_, incidence_;
 
   size_t nodes() const { return x.size(); }
   double totalMass() const;
