@@ -85,118 +85,141 @@ void GridCoupling::scanNearSolids(const std::vector<ParticleSet>& sets, const Gr
                                   const TransferParams& p, bool gaps, bool fronts) {
   const float cos_front = float(std::cos(solver_.front_angle_deg * M_PI / 180.0));
   if (fronts) front_lists_.resize(size_t(omp_get_max_threads()));
-  // One parallel region for the eight colours (a barrier between them): a
-  // region per colour cost a wake-up of the sleeping threads each.
+  // The gaps and sums that one particle block's particles give their nodes.
+  auto scanBlock = [&](uint32_t pb, float* gap, std::vector<FrontParticle>* list) {
+    std::array<int32_t, 8> slot;
+    bool any = false;
+    for (int d = 0; d < 8; ++d) {
+      const uint32_t gb = layout.neighbours[pb][size_t(d)];
+      slot[size_t(d)] = block_slot_[gb];
+      // Only solids that move can open a gap or split a node; a fixed
+      // solid's nodes keep the plain approach test (and a floor under a
+      // whole scene costs nothing here).
+      any |= slot[size_t(d)] >= 0 && slot_moving_[size_t(slot[size_t(d)])];
+    }
+    if (!any) return;
+    // Most particles here lie farther from the solids than any node's
+    // distance reaches: their stencils hold no node with a distance, so
+    // they give no node a gap. Without fronts, skip them by their base
+    // cell.
+    const uint64_t near = fronts ? ~uint64_t(0) : cellsNearSurface(slot);
+    if (near == 0) return;
+    for (size_t s = 0; s < sets.size(); ++s) {
+      const ParticleSet& set = sets[s];
+      const float radius = 0.5f * std::cbrt(set.volume);
+      for (uint32_t q = layout.offsets[s][pb]; q < layout.offsets[s][pb + 1]; ++q) {
+        const Stencil st = stencilAt(set.x[q], p.shifted_origin, p.inv_dx);
+        const Vec3i l(st.base.x() & (kBlockSize - 1), st.base.y() & (kBlockSize - 1),
+                      st.base.z() & (kBlockSize - 1));
+        if (!(near >> localNode(l.x(), l.y(), l.z()) & 1)) continue;
+        // The particle's distance: the envelope of the planes its nodes'
+        // distances came from (phi_i + n_i . (x_p - x_i), the largest),
+        // exact beside a face, never more than the true distance.
+        int32_t node[27];  // slot node of a moving solid, or -1
+        float plane[27];   // each node's plane distance at the particle
+        float phi = -kFar;
+        int nearest = -1;  // the node whose plane gave phi
+        int k27 = 0;
+        // Without branches on the nodes' distances: a node without one
+        // (phi -1e30, normal zero) gives a plane of -1e30, which neither
+        // beats phi nor counts as a distance.
+        for (int a = 0; a < 3; ++a)
+          for (int b = 0; b < 3; ++b)
+            for (int c = 0; c < 3; ++c, ++k27) {
+              node[k27] = -1;
+              plane[k27] = kNoDistance;
+              const int32_t sl = slot[size_t(neighbourOf(l, a, b, c))];
+              if (sl < 0) continue;
+              const uint32_t i =
+                  uint32_t(sl) * kBlockNodes + localNode(l.x() + a, l.y() + b, l.z() + c);
+              const SolidNode& g = nodes_[i];
+              node[k27] = slot_moving_[size_t(sl)] ? int32_t(i) : -1;
+              const Vec3f r(st.fx[0] - float(a), st.fx[1] - float(b), st.fx[2] - float(c));
+              plane[k27] = g.phi + p.dx * (g.dn[0] * r[0] + g.dn[1] * r[1] + g.dn[2] * r[2]);
+              const bool nearer = plane[k27] > phi;
+              phi = nearer ? plane[k27] : phi;
+              nearest = nearer ? int(i) : nearest;
+            }
+        if (gaps && phi > kNoDistance) {
+          const float clearance = std::max(0.0f, phi - radius);
+          for (int m = 0; m < 27; ++m)
+            if (node[m] >= 0) gap[node[m]] = std::min(gap[node[m]], clearance);
+        }
+        // Sleeping material keeps its sums at rest and gathers nothing:
+        // it stays one field.
+        if (!fronts || layout.sleeping(pb)) continue;
+        // Its momentum as P2G gave it to each node, w m (v + C (x_i -
+        // x_p)), to the node's whole sums and, where the node's face
+        // faces the way the particle's nearest does, to its front's.
+        // With o the node's offset in the stencil, w m (v + C dx (o -
+        // fx)) = w (mv0 + D o): three columns added per node.
+        uint32_t mask = 0;
+        bool touches = false;
+        const float m = set.mass;
+        const float* dn = nodes_[size_t(nearest >= 0 ? nearest : 0)].dn;
+        const Mat3f D = (m * p.dx) * set.C[q];
+        const Vec3f mv0 = m * set.v[q] - D * Vec3f(st.fx[0], st.fx[1], st.fx[2]);
+        k27 = 0;
+        for (int a = 0; a < 3; ++a)
+          for (int b = 0; b < 3; ++b)
+            for (int c = 0; c < 3; ++c, ++k27) {
+              if (node[k27] < 0) continue;
+              touches = true;
+              const float w = st.w[0][a] * st.w[1][b] * st.w[2][c];
+              const Vec3f mom =
+                  w * (mv0 + float(a) * D.col(0) + float(b) * D.col(1) + float(c) * D.col(2));
+              FrontSums& f = front_[size_t(node[k27])];
+              f.ma += w * m;
+              for (int e = 0; e < 3; ++e) f.pa[e] += mom[e];
+              // In front where the node's face faces the way the
+              // particle's nearest face does (or either is unknown).
+              if (nearest >= 0 && plane[k27] > kNoDistance) {
+                const float* dk = nodes_[size_t(node[k27])].dn;
+                if (dk[0] * dn[0] + dk[1] * dn[1] + dk[2] * dn[2] < cos_front) continue;
+              }
+              mask |= 1u << k27;
+              f.mf += w * m;
+              for (int e = 0; e < 3; ++e) f.pf[e] += mom[e];
+            }
+        if (touches) list->push_back({uint32_t(s), q, pb, mask, set.x[q]});
+      }
+    }
+  };
+  if (!fronts) {
+    // Gaps alone: a node's gap is the least clearance of its particles, the
+    // same in any order. Blocks go to threads as they come free, each
+    // thread keeps its own gaps, and each node takes the least of them.
+    gap_threads_.resize(size_t(omp_get_max_threads()));
+#pragma omp parallel if (layout.particleBlocks() > 1)
+    {
+      const size_t team = size_t(omp_get_num_threads());
+      std::vector<float>& mine = gap_threads_[size_t(omp_get_thread_num())];
+      mine.assign(gap_.size(), kFar);
+#pragma omp for schedule(dynamic, 1)
+      for (int64_t pb = 0; pb < int64_t(layout.particleBlocks()); ++pb)
+        scanBlock(uint32_t(pb), mine.data(), nullptr);
+#pragma omp for schedule(static)
+      for (int64_t i = 0; i < int64_t(gap_.size()); ++i)
+        for (size_t t = 0; t < team; ++t)
+          gap_[size_t(i)] = std::min(gap_[size_t(i)], gap_threads_[t][size_t(i)]);
+    }
+    return;
+  }
+  // Two fields: one parallel region for the eight colours (a barrier
+  // between them; a region per colour cost a wake-up of the sleeping
+  // threads each).
   size_t widest = 0;
   for (const auto& c : layout.colour_blocks) widest = std::max(widest, c.size());
 #pragma omp parallel if (widest > 1)
   for (int colour = 0; colour < 8; ++colour) {
     const std::vector<uint32_t>& blocks = layout.colour_blocks[size_t(colour)];
-    std::vector<FrontParticle>* list =
-        fronts ? &front_lists_[size_t(omp_get_thread_num())] : nullptr;
+    std::vector<FrontParticle>* list = &front_lists_[size_t(omp_get_thread_num())];
     // Blocks of one colour share no node: the mins and sums need no
     // atomics, and each node's sums are added in colour order, block by
     // block, the same for any thread count.
 #pragma omp for schedule(dynamic, 1)
-    for (int64_t k = 0; k < int64_t(blocks.size()); ++k) {
-      const uint32_t pb = blocks[size_t(k)];
-      std::array<int32_t, 8> slot;
-      bool any = false;
-      for (int d = 0; d < 8; ++d) {
-        const uint32_t gb = layout.neighbours[pb][size_t(d)];
-        slot[size_t(d)] = block_slot_[gb];
-        // Only solids that move can open a gap or split a node; a fixed
-        // solid's nodes keep the plain approach test (and a floor under a
-        // whole scene costs nothing here).
-        any |= slot[size_t(d)] >= 0 && slot_moving_[size_t(slot[size_t(d)])];
-      }
-      if (!any) continue;
-      // Most particles here lie farther from the solids than any node's
-      // distance reaches: their stencils hold no node with a distance, so
-      // they give no node a gap. Without fronts, skip them by their base
-      // cell.
-      const uint64_t near = fronts ? ~uint64_t(0) : cellsNearSurface(slot);
-      if (near == 0) continue;
-      for (size_t s = 0; s < sets.size(); ++s) {
-        const ParticleSet& set = sets[s];
-        const float radius = 0.5f * std::cbrt(set.volume);
-        for (uint32_t q = layout.offsets[s][pb]; q < layout.offsets[s][pb + 1]; ++q) {
-          const Stencil st = stencilAt(set.x[q], p.shifted_origin, p.inv_dx);
-          const Vec3i l(st.base.x() & (kBlockSize - 1), st.base.y() & (kBlockSize - 1),
-                        st.base.z() & (kBlockSize - 1));
-          if (!(near >> localNode(l.x(), l.y(), l.z()) & 1)) continue;
-          // The particle's distance: the envelope of the planes its nodes'
-          // distances came from (phi_i + n_i . (x_p - x_i), the largest),
-          // exact beside a face, never more than the true distance.
-          int32_t node[27];  // slot node of a moving solid, or -1
-          float plane[27];   // each node's plane distance at the particle
-          float phi = -kFar;
-          int nearest = -1;  // the node whose plane gave phi
-          int k27 = 0;
-          for (int a = 0; a < 3; ++a)
-            for (int b = 0; b < 3; ++b)
-              for (int c = 0; c < 3; ++c, ++k27) {
-                node[k27] = -1;
-                plane[k27] = kNoDistance;
-                const int32_t sl = slot[size_t(neighbourOf(l, a, b, c))];
-                if (sl < 0) continue;
-                const uint32_t i =
-                    uint32_t(sl) * kBlockNodes + localNode(l.x() + a, l.y() + b, l.z() + c);
-                const SolidNode& g = nodes_[i];
-                if (slot_moving_[size_t(sl)]) node[k27] = int32_t(i);
-                if (g.phi < kNoDistance) continue;
-                const Vec3f r(st.fx[0] - float(a), st.fx[1] - float(b), st.fx[2] - float(c));
-                plane[k27] = g.phi + p.dx * (g.dn[0] * r[0] + g.dn[1] * r[1] + g.dn[2] * r[2]);
-                if (plane[k27] > phi) {
-                  phi = plane[k27];
-                  nearest = int(i);
-                }
-              }
-          if (gaps && phi > kNoDistance) {
-            const float clearance = std::max(0.0f, phi - radius);
-            for (int m = 0; m < 27; ++m)
-              if (node[m] >= 0) gap_[size_t(node[m])] = std::min(gap_[size_t(node[m])], clearance);
-          }
-          // Sleeping material keeps its sums at rest and gathers nothing:
-          // it stays one field.
-          if (!fronts || layout.sleeping(pb)) continue;
-          // Its momentum as P2G gave it to each node, w m (v + C (x_i -
-          // x_p)), to the node's whole sums and, where the node's face
-          // faces the way the particle's nearest does, to its front's.
-          // With o the node's offset in the stencil, w m (v + C dx (o -
-          // fx)) = w (mv0 + D o): three columns added per node.
-          uint32_t mask = 0;
-          bool touches = false;
-          const float m = set.mass;
-          const float* dn = nodes_[size_t(nearest >= 0 ? nearest : 0)].dn;
-          const Mat3f D = (m * p.dx) * set.C[q];
-          const Vec3f mv0 = m * set.v[q] - D * Vec3f(st.fx[0], st.fx[1], st.fx[2]);
-          k27 = 0;
-          for (int a = 0; a < 3; ++a)
-            for (int b = 0; b < 3; ++b)
-              for (int c = 0; c < 3; ++c, ++k27) {
-                if (node[k27] < 0) continue;
-                touches = true;
-                const float w = st.w[0][a] * st.w[1][b] * st.w[2][c];
-                const Vec3f mom =
-                    w * (mv0 + float(a) * D.col(0) + float(b) * D.col(1) + float(c) * D.col(2));
-                FrontSums& f = front_[size_t(node[k27])];
-                f.ma += w * m;
-                for (int e = 0; e < 3; ++e) f.pa[e] += mom[e];
-                // In front where the node's face faces the way the
-                // particle's nearest face does (or either is unknown).
-                if (nearest >= 0 && plane[k27] > kNoDistance) {
-                  const float* dk = nodes_[size_t(node[k27])].dn;
-                  if (dk[0] * dn[0] + dk[1] * dn[1] + dk[2] * dn[2] < cos_front) continue;
-                }
-                mask |= 1u << k27;
-                f.mf += w * m;
-                for (int e = 0; e < 3; ++e) f.pf[e] += mom[e];
-              }
-          if (touches) list->push_back({uint32_t(s), q, pb, mask, set.x[q]});
-        }
-      }
-    }
+    for (int64_t k = 0; k < int64_t(blocks.size()); ++k)
+      scanBlock(blocks[size_t(k)], gap_.data(), list);
   }
 }
 

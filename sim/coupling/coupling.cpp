@@ -23,8 +23,7 @@ const GridCoupling::SolidNode kEmptyNode{0,         {0, 0, 0}, {0, 0, 0}, 0, 0, 
 // Calls f(w, slot node index, node - x in cells) for every node of point x's quadratic stencil
 // that lies in one of base block blk's eight grid blocks with a slot.
 template <class Block, class F>
-void forStencil(const Block& blk, const Vec3f& x, const TransferParams& p, F&& f) {
-  const Stencil st = stencilAt(x, p.shifted_origin, p.inv_dx);
+void forStencil(const Block& blk, const Stencil& st, F&& f) {
   const Vec3i l(st.base.x() & (kBlockSize - 1), st.base.y() & (kBlockSize - 1),
                 st.base.z() & (kBlockSize - 1));
   for (int a = 0; a < 3; ++a)
@@ -38,15 +37,25 @@ void forStencil(const Block& blk, const Vec3f& x, const TransferParams& p, F&& f
       }
 }
 
+template <class Block, class F>
+void forStencil(const Block& blk, const Vec3f& x, const TransferParams& p, F&& f) {
+  forStencil(blk, stencilAt(x, p.shifted_origin, p.inv_dx), f);
+}
+
 // Adds one sample's distance, carried along its normal to the node (dist =
 // phi_q + n_q . (x_i - x_q)), to the node's distance and normals.
+// Without branches: which sample is nearest, and whether a node lies
+// outside a sample's plane, change from node to node unpredictably. Adding
+// w * 0 * n where the node lies inside leaves each sum as it was (the sums
+// start at +0 and never become -0).
 inline void addSampleDistance(GridCoupling::SolidNode& g, float w, float dist, const Vec3f& nq) {
-  if (dist > g.phi) {
-    g.phi = dist;
-    for (int e = 0; e < 3; ++e) g.dn[e] = nq[e];
+  const bool nearer = dist > g.phi;
+  g.phi = nearer ? dist : g.phi;
+  const float outside = w * std::max(dist, 0.0f);
+  for (int e = 0; e < 3; ++e) {
+    g.dn[e] = nearer ? nq[e] : g.dn[e];
+    g.on[e] += outside * nq[e];
   }
-  if (dist > 0.0f)
-    for (int e = 0; e < 3; ++e) g.on[e] += w * dist * nq[e];
 }
 
 }  // namespace
@@ -176,52 +185,78 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
   nodes_.assign(slot_block_.size() * kBlockNodes, kEmptyNode);
   for (const auto& [slot, f] : fixed_copy)
     std::copy_n(&fixed_nodes_[f * kBlockNodes], kBlockNodes, &nodes_[size_t(slot) * kBlockNodes]);
-  for (auto& c : colour_blocks_) c.clear();
+  // Each slot block gathers what the base blocks that reach it scatter.
+  // The eight base blocks that can reach a slot (slot - {0,1}^3) have the
+  // eight colours (parities): taken in colour order, every node's sum is
+  // added in the order of a serial scatter colour by colour, whatever the
+  // thread count. Slots are independent, so threads need no colours nor
+  // barriers, and none waits while a colour has fewer blocks than threads.
+  slot_sources_.assign(slot_block_.size(), {-1, -1, -1, -1, -1, -1, -1, -1});
   for (size_t k = 0; k < blocks_.size(); ++k) {
     const Vec3i b = unpackBlock(blocks_[k].key);
-    colour_blocks_[((b.x() & 1) << 2) | ((b.y() & 1) << 1) | (b.z() & 1)].push_back(uint32_t(k));
+    const int colour = ((b.x() & 1) << 2) | ((b.y() & 1) << 1) | (b.z() & 1);
+    for (int d = 0; d < 8; ++d)
+      if (blocks_[k].slot[d] != kNoSlot)
+        slot_sources_[size_t(blocks_[k].slot[d])][size_t(colour)] = int32_t(k * 8 + size_t(d));
   }
-
-  // Scatter colour by colour: base blocks of one colour reach disjoint nodes,
-  // so each node's sum has one order for any thread count.
-  // One parallel region for the eight colours (a barrier between them).
-  size_t widest = 0;
-  for (const auto& c : colour_blocks_) widest = std::max(widest, c.size());
-#pragma omp parallel if (widest > 1)
-  for (const std::vector<uint32_t>& colour : colour_blocks_) {
-#pragma omp for schedule(dynamic, 1)
-    for (int64_t k = 0; k < int64_t(colour.size()); ++k) {
-      const PointBlock& blk = blocks_[colour[k]];
+  // Each active point's stencil, once (a point reaches up to eight slots).
+  stencils_.resize(n);
+  const bool parallel = stats_.active_points > 512;
+#pragma omp parallel for schedule(dynamic, 1) if (parallel)
+  for (int64_t k = 0; k < int64_t(blocks_.size()); ++k)
+    for (uint32_t o = blocks_[size_t(k)].first; o < blocks_[size_t(k)].last; o += 3)
+      for (uint32_t q = order_[o]; q < order_[o + 1]; ++q)
+        stencils_[q] = stencilAt(pts.x[q], p.shifted_origin, p.inv_dx);
+#pragma omp parallel for schedule(dynamic, 1) if (parallel)
+  for (int64_t s = 0; s < int64_t(slot_sources_.size()); ++s) {
+    SolidNode* slot_nodes = &nodes_[size_t(s) * kBlockNodes];
+    for (const int32_t source : slot_sources_[size_t(s)]) {
+      if (source < 0) continue;
+      const PointBlock& blk = blocks_[size_t(source) >> 3];
+      const int d = source & 7;
+      const int side[3] = {(d >> 2) & 1, (d >> 1) & 1, d & 1};  // which neighbour, per axis
       for (uint32_t o = blk.first; o < blk.last; o += 3) {
-        const uint32_t s = order_[o + 2];
-        const float mu = pts.friction[s];
-        const bool driven = pts.kind[s] == SolidKind::Driven;
+        const uint32_t solid = order_[o + 2];
+        const float mu = pts.friction[solid];
+        const bool driven = pts.kind[solid] == SolidKind::Driven;
+        const int32_t tag = int32_t(solid) + 1;
         for (uint32_t q = order_[o]; q < order_[o + 1]; ++q) {
           const float m = pts.point_mass[q];
           const Vec3f& v = pts.v[q];
           const Vec3f& nq = pts.n[q];
-          const int32_t tag = int32_t(s) + 1;
           const float phi = pts.phi[q];
-          forStencil(blk, pts.x[q], p, [&](float w, size_t i, const Vec3f& r) {
-            SolidNode& g = nodes_[i];
-            g.m += w * m;
-            addSampleDistance(g, w, phi + p.dx * nq.dot(r), nq);
-            for (int d = 0; d < 3; ++d) {
-              g.p[d] += w * m * v[d];
-              g.n[d] += w * nq[d];
-            }
-            g.mu += w * m * mu;
-            if (driven) {
-              // Infinite mass, like a fixed solid, but moving.
-              g.fixed_m += w * m;
-              for (int d = 0; d < 3; ++d) g.fixed_p[d] += w * m * v[d];
-              g.fixed_solid = g.fixed_solid == 0 || g.fixed_solid == tag ? tag : -1;
-              g.solid = -1;  // never a moving body's node
-            } else {
-              g.solid = g.solid == 0 || g.solid == tag ? tag : -1;
-            }
-            g.owner = g.owner == 0 || g.owner == tag ? tag : -1;
-          });
+          const Stencil& st = stencils_[q];
+          // The stencil's offsets along each axis that land in this slot.
+          int lo[3], hi[3], l[3];
+          for (int e = 0; e < 3; ++e) {
+            l[e] = st.base[e] & (kBlockSize - 1);
+            lo[e] = side[e] ? std::max(0, kBlockSize - l[e]) : 0;
+            hi[e] = side[e] ? 2 : std::min(2, kBlockSize - 1 - l[e]);
+          }
+          for (int a = lo[0]; a <= hi[0]; ++a)
+            for (int b = lo[1]; b <= hi[1]; ++b)
+              for (int c = lo[2]; c <= hi[2]; ++c) {
+                const float w = st.w[0][a] * st.w[1][b] * st.w[2][c];
+                const Vec3f r(float(a) - st.fx[0], float(b) - st.fx[1], float(c) - st.fx[2]);
+                SolidNode& g = slot_nodes[localNode(l[0] + a, l[1] + b, l[2] + c)];
+                g.m += w * m;
+                addSampleDistance(g, w, phi + p.dx * nq.dot(r), nq);
+                for (int e = 0; e < 3; ++e) {
+                  g.p[e] += w * m * v[e];
+                  g.n[e] += w * nq[e];
+                }
+                g.mu += w * m * mu;
+                if (driven) {
+                  // Infinite mass, like a fixed solid, but moving.
+                  g.fixed_m += w * m;
+                  for (int e = 0; e < 3; ++e) g.fixed_p[e] += w * m * v[e];
+                  g.fixed_solid = g.fixed_solid == 0 || g.fixed_solid == tag ? tag : -1;
+                  g.solid = -1;  // never a moving body's node
+                } else {
+                  g.solid = g.solid == 0 || g.solid == tag ? tag : -1;
+                }
+                g.owner = g.owner == 0 || g.owner == tag ? tag : -1;
+              }
         }
       }
     }
@@ -594,7 +629,8 @@ void GridCoupling::gather(SolidPoints& pts, const TransferParams& p) const {
     return;
   }
   pts.dv.assign(pts.size(), Vec3f::Zero());
-#pragma omp parallel for schedule(dynamic, 4) if (blocks_.size() > 32)
+  // A solid of a few thousand points lies in a few dozen base blocks.
+#pragma omp parallel for schedule(dynamic, 1) if (stats_.active_points > 2048)
   for (int64_t k = 0; k < int64_t(blocks_.size()); ++k) {
     const PointBlock& blk = blocks_[k];
     for (uint32_t o = blk.first; o < blk.last; o += 3) {
@@ -602,7 +638,9 @@ void GridCoupling::gather(SolidPoints& pts, const TransferParams& p) const {
       if (pts.kind[order_[o + 2]] != SolidKind::Moving) continue;
       for (uint32_t q = order_[o]; q < order_[o + 1]; ++q) {
         Vec3f dv = Vec3f::Zero();
-        forStencil(blk, pts.x[q], p, [&](float w, size_t i, const Vec3f&) { dv += w * delta_[i]; });
+        // The stencil the scatter computed: the points have not moved.
+        forStencil(blk, stencils_[q],
+                   [&](float w, size_t i, const Vec3f&) { dv += w * delta_[i]; });
         pts.dv[q] = dv;
       }
     }
@@ -655,7 +693,14 @@ size_t GridCoupling::bytes() const {
          order_.capacity() * 4 + blocks_.capacity() * sizeof(PointBlock) +
          point_key_.capacity() * 8 + front_.capacity() * sizeof(FrontSums) +
          (front_dv_.capacity() + rest_dv_.capacity()) * sizeof(Vec3f) + split_.capacity() * 8 +
-         frontListBytes();
+         frontListBytes() + slot_sources_.capacity() * sizeof(slot_sources_[0]) +
+         stencils_.capacity() * sizeof(Stencil) + gapThreadBytes();
+}
+
+size_t GridCoupling::gapThreadBytes() const {
+  size_t b = 0;
+  for (const auto& g : gap_threads_) b += g.capacity() * sizeof(float);
+  return b;
 }
 
 }  // namespace triad

@@ -171,17 +171,22 @@ class GridCoupling {
   std::vector<Vec3f> delta_;           // per slot node: velocity change felt by the solids
   std::vector<uint8_t> slot_moving_;  // per slot: a moving or driven solid reaches it
   std::vector<float> gap_;            // per slot node: the material's clearance (measureNearSolids)
+  std::vector<std::vector<float>> gap_threads_;  // each thread's gaps, without fronts
   std::vector<Vec3f> pre_;             // per slot node: MPM velocity before the update
   std::vector<uint32_t> slot_block_;   // per slot: grid block index
   std::vector<int32_t> block_slot_;    // per grid block: slot or -1
   std::vector<uint32_t> order_;        // active points grouped by base block
   std::vector<PointBlock> blocks_;
-  std::array<std::vector<uint32_t>, 8> colour_blocks_;
+  // Per slot, by colour: 8 k + d for the base block blocks_[k] whose
+  // neighbour d it is, or -1.
+  std::vector<std::array<int32_t, 8>> slot_sources_;
+  std::vector<Stencil> stencils_;      // per point (active ones only)
   std::vector<uint64_t> point_key_;    // per point: base block key
   void buildFixed(const SolidPoints& points, const TransferParams& p);
   // Bit localNode(cell) set where a particle with that base cell in the
   // block whose neighbours' slots are `slot` reaches a node with a distance.
   uint64_t cellsNearSurface(const std::array<int32_t, 8>& slot) const;
+  size_t gapThreadBytes() const;
   // measureNearSolids' pass over this process's particles.
   void scanNearSolids(const std::vector<ParticleSet>& sets, const GridLayout& layout,
                       const TransferParams& p, bool gaps, bool fronts);
