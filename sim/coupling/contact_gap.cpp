@@ -55,30 +55,102 @@ void GridCoupling::measureNearSolids(const std::vector<ParticleSet>& sets, const
                 &gap_[s * kBlockNodes]);
 }
 
-uint64_t GridCoupling::cellsNearSurface(const std::array<int32_t, 8>& slot) const {
-  // Which of the 6^3 nodes a block's stencils reach hold a distance.
+void GridCoupling::gapsOfBlock(uint32_t pb, const std::vector<ParticleSet>& sets,
+                               const GridLayout& layout, const TransferParams& p,
+                               float* gap) const {
+  std::array<int32_t, 8> slot;
+  bool moving = false;
+  for (int d = 0; d < 8; ++d) {
+    slot[size_t(d)] = block_slot_[layout.neighbours[pb][size_t(d)]];
+    // Only solids that move open a gap; a fixed solid's nodes keep the
+    // plain approach test (and a floor under a whole scene costs nothing
+    // here).
+    moving |= slot[size_t(d)] >= 0 && slot_moving_[size_t(slot[size_t(d)])];
+  }
+  if (!moving) return;
+  // The planes (distance and its normal) of the 6^3 nodes the block's
+  // stencils reach, copied together: the particles then read them at fixed
+  // strides. A node without a distance (or without a slot) has -1e30 and
+  // a zero normal, so its plane is -1e30 at any particle.
   constexpr int kReach = kBlockSize + 2;
+  struct Plane {
+    float phi, n[3];
+  };
+  Plane plane[kReach][kReach][kReach];
   bool has[kReach][kReach][kReach];
+  bool any = false;
   for (int x = 0; x < kReach; ++x)
     for (int y = 0; y < kReach; ++y)
       for (int z = 0; z < kReach; ++z) {
         const int32_t sl =
             slot[size_t(((x >> kBlockBits) << 2) | ((y >> kBlockBits) << 1) | (z >> kBlockBits))];
-        has[x][y][z] =
-            sl >= 0 && nodes_[uint32_t(sl) * kBlockNodes + localNode(x, y, z)].phi >= kNoDistance;
+        Plane& pl = plane[x][y][z];
+        pl = {-kFar, {0.0f, 0.0f, 0.0f}};
+        if (sl >= 0) {
+          const SolidNode& g = nodes_[uint32_t(sl) * kBlockNodes + localNode(x, y, z)];
+          pl = {g.phi, {g.dn[0], g.dn[1], g.dn[2]}};
+        }
+        has[x][y][z] = pl.phi >= kNoDistance;
+        any = any || has[x][y][z];
       }
-  // A base cell is near when any node of its 3^3 stencil has one.
+  if (!any) return;
+  // Most particles here lie farther from the solids than any node's
+  // distance reaches: a base cell is near when a node of its 3^3 stencil
+  // has a distance, and the others are skipped.
   uint64_t near = 0;
   for (int x = 0; x < kBlockSize; ++x)
     for (int y = 0; y < kBlockSize; ++y)
       for (int z = 0; z < kBlockSize; ++z) {
-        bool any = false;
-        for (int a = 0; a < 3 && !any; ++a)
-          for (int b = 0; b < 3 && !any; ++b)
-            for (int c = 0; c < 3 && !any; ++c) any = has[x + a][y + b][z + c];
-        if (any) near |= uint64_t(1) << localNode(x, y, z);
+        bool reach = false;
+        for (int a = 0; a < 3 && !reach; ++a)
+          for (int b = 0; b < 3 && !reach; ++b)
+            for (int c = 0; c < 3 && !reach; ++c) reach = has[x + a][y + b][z + c];
+        if (reach) near |= uint64_t(1) << localNode(x, y, z);
       }
-  return near;
+  if (near == 0) return;
+  float least[kReach][kReach][kReach];
+  std::fill(&least[0][0][0], &least[0][0][0] + kReach * kReach * kReach, kFar);
+  for (size_t s = 0; s < sets.size(); ++s) {
+    const ParticleSet& set = sets[s];
+    const float radius = 0.5f * std::cbrt(set.volume);
+    for (uint32_t q = layout.offsets[s][pb]; q < layout.offsets[s][pb + 1]; ++q) {
+      const Stencil st = stencilAt(set.x[q], p.shifted_origin, p.inv_dx);
+      const int lx = st.base.x() & (kBlockSize - 1), ly = st.base.y() & (kBlockSize - 1),
+                lz = st.base.z() & (kBlockSize - 1);
+      if (!(near >> localNode(lx, ly, lz) & 1)) continue;
+      // The particle's distance: the envelope of the planes its nodes'
+      // distances came from (phi_i + n_i . (x_p - x_i), the largest),
+      // exact beside a face, never more than the true distance.
+      float phi = -kFar;
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b)
+          for (int c = 0; c < 3; ++c) {
+            const Plane& pl = plane[lx + a][ly + b][lz + c];
+            const float r0 = st.fx[0] - float(a), r1 = st.fx[1] - float(b),
+                        r2 = st.fx[2] - float(c);
+            const float d = pl.phi + p.dx * (pl.n[0] * r0 + pl.n[1] * r1 + pl.n[2] * r2);
+            phi = d > phi ? d : phi;
+          }
+      if (!(phi > kNoDistance)) continue;
+      const float clearance = std::max(0.0f, phi - radius);
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b)
+          for (int c = 0; c < 3; ++c) {
+            float& l = least[lx + a][ly + b][lz + c];
+            l = std::min(l, clearance);
+          }
+    }
+  }
+  // Into the moving solids' nodes: the least is the same in any order.
+  for (int x = 0; x < kReach; ++x)
+    for (int y = 0; y < kReach; ++y)
+      for (int z = 0; z < kReach; ++z) {
+        const int32_t sl =
+            slot[size_t(((x >> kBlockBits) << 2) | ((y >> kBlockBits) << 1) | (z >> kBlockBits))];
+        if (sl < 0 || !slot_moving_[size_t(sl)] || least[x][y][z] >= kFar) continue;
+        float& g = gap[uint32_t(sl) * kBlockNodes + localNode(x, y, z)];
+        g = std::min(g, least[x][y][z]);
+      }
 }
 
 void GridCoupling::scanNearSolids(const std::vector<ParticleSet>& sets, const GridLayout& layout,
@@ -98,12 +170,6 @@ void GridCoupling::scanNearSolids(const std::vector<ParticleSet>& sets, const Gr
       any |= slot[size_t(d)] >= 0 && slot_moving_[size_t(slot[size_t(d)])];
     }
     if (!any) return;
-    // Most particles here lie farther from the solids than any node's
-    // distance reaches: their stencils hold no node with a distance, so
-    // they give no node a gap. Without fronts, skip them by their base
-    // cell.
-    const uint64_t near = fronts ? ~uint64_t(0) : cellsNearSurface(slot);
-    if (near == 0) return;
     for (size_t s = 0; s < sets.size(); ++s) {
       const ParticleSet& set = sets[s];
       const float radius = 0.5f * std::cbrt(set.volume);
@@ -111,7 +177,6 @@ void GridCoupling::scanNearSolids(const std::vector<ParticleSet>& sets, const Gr
         const Stencil st = stencilAt(set.x[q], p.shifted_origin, p.inv_dx);
         const Vec3i l(st.base.x() & (kBlockSize - 1), st.base.y() & (kBlockSize - 1),
                       st.base.z() & (kBlockSize - 1));
-        if (!(near >> localNode(l.x(), l.y(), l.z()) & 1)) continue;
         // The particle's distance: the envelope of the planes its nodes'
         // distances came from (phi_i + n_i . (x_p - x_i), the largest),
         // exact beside a face, never more than the true distance.
@@ -197,7 +262,7 @@ void GridCoupling::scanNearSolids(const std::vector<ParticleSet>& sets, const Gr
       mine.assign(gap_.size(), kFar);
 #pragma omp for schedule(dynamic, 1)
       for (int64_t pb = 0; pb < int64_t(layout.particleBlocks()); ++pb)
-        scanBlock(uint32_t(pb), mine.data(), nullptr);
+        gapsOfBlock(uint32_t(pb), sets, layout, p, mine.data());
 #pragma omp for schedule(static)
       for (int64_t i = 0; i < int64_t(gap_.size()); ++i)
         for (size_t t = 0; t < team; ++t)

@@ -183,9 +183,10 @@ class GridCoupling {
   std::vector<Stencil> stencils_;      // per point (active ones only)
   std::vector<uint64_t> point_key_;    // per point: base block key
   void buildFixed(const SolidPoints& points, const TransferParams& p);
-  // Bit localNode(cell) set where a particle with that base cell in the
-  // block whose neighbours' slots are `slot` reaches a node with a distance.
-  uint64_t cellsNearSurface(const std::array<int32_t, 8>& slot) const;
+  // The least clearance of particle block pb's particles at each moving
+  // solid's node their stencils reach, into `gap` (per slot node).
+  void gapsOfBlock(uint32_t pb, const std::vector<ParticleSet>& sets, const GridLayout& layout,
+                   const TransferParams& p, float* gap) const;
   size_t gapThreadBytes() const;
   // measureNearSolids' pass over this process's particles.
   void scanNearSolids(const std::vector<ParticleSet>& sets, const GridLayout& layout,
