@@ -201,8 +201,10 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
   }
   // Each active point's stencil, once (a point reaches up to eight slots).
   stencils_.resize(n);
+  // (Tens of nanoseconds a point: below some ten thousand points, waking
+  // the other threads costs more.)
   const bool parallel = stats_.active_points > 512;
-#pragma omp parallel for schedule(dynamic, 1) if (parallel)
+#pragma omp parallel for schedule(dynamic, 1) if (stats_.active_points > 16384)
   for (int64_t k = 0; k < int64_t(blocks_.size()); ++k)
     for (uint32_t o = blocks_[size_t(k)].first; o < blocks_[size_t(k)].last; o += 3)
       for (uint32_t q = order_[o]; q < order_[o + 1]; ++q)
