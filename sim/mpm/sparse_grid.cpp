@@ -47,7 +47,6 @@ size_t GridLayout::bytes() const {
 
 size_t Binner::bytes() const {
   size_t runs = 0;
-  for (const auto& r : runs_) runs += r.capacity();
   for (const auto& r : chunk_runs_) runs += r.capacity();
   size_t colours = 0;
   for (const auto& c : colour_blocks_) colours += c.capacity() * 4;
@@ -69,7 +68,7 @@ void Binner::bin(std::vector<ParticleSet>& sets, const Vec3f& shifted_origin, fl
   // the runs found do not depend on the thread count. With an order, the
   // ranges are visited in the order given, and a run never crosses one.
   constexpr size_t kChunk = 16384;
-  runs_.resize(sets.size());
+  set_chunks_.assign(sets.size() + 1, 0);
   for (size_t s = 0; s < sets.size(); ++s) {
     const std::vector<Vec3f>& x = sets[s].x;
     std::vector<std::pair<size_t, size_t>> chunks;
@@ -83,10 +82,12 @@ void Binner::bin(std::vector<ParticleSet>& sets, const Vec3f& shifted_origin, fl
     } else {
       addRange(0, x.size());
     }
-    chunk_runs_.resize(std::max(chunk_runs_.size(), chunks.size()));
+    const size_t first = set_chunks_[s];
+    set_chunks_[s + 1] = first + chunks.size();
+    if (chunk_runs_.size() < set_chunks_[s + 1]) chunk_runs_.resize(set_chunks_[s + 1]);
 #pragma omp parallel for schedule(static) if (chunks.size() > 1)
     for (int64_t c = 0; c < static_cast<int64_t>(chunks.size()); ++c) {
-      std::vector<Run>& out = chunk_runs_[c];
+      std::vector<Run>& out = chunk_runs_[first + size_t(c)];
       out.clear();
       // A particle in the run's block extends the run: for an integer lo,
       // floor(s) >= lo iff s >= lo, so comparing the shifted coordinates with
@@ -103,25 +104,24 @@ void Binner::bin(std::vector<ParticleSet>& sets, const Vec3f& shifted_origin, fl
         const Vec3i b = unpackBlock(k);
         lo = (b * kBlockSize).cast<float>();
         hi = lo.array() + float(kBlockSize);
-        if (out.empty() || out.back().key != k) out.push_back({k, uint32_t(i), uint32_t(i), 0});
+        if (out.empty() || out.back().block != k) out.push_back({k, uint32_t(i), uint32_t(i)});
         out.back().end = uint32_t(i + 1);
       }
     }
-    runs_[s].clear();
-    for (size_t c = 0; c < chunks.size(); ++c)
-      runs_[s].insert(runs_[s].end(), chunk_runs_[c].begin(), chunk_runs_[c].end());
-    // Unsorted input (the first step) has many short runs: do not keep the
-    // memory once the particles are sorted.
-    if (runs_[s].capacity() > 4 * runs_[s].size() + 4096) runs_[s].shrink_to_fit();
-    for (size_t c = 0; c < chunks.size(); ++c)
-      if (chunk_runs_[c].capacity() > 2 * chunk_runs_[c].size() + 256)
-        chunk_runs_[c].shrink_to_fit();
   }
+  // Unsorted input (the first step) has many short runs: do not keep the
+  // memory once the particles are sorted, nor chunks no set uses now.
+  for (size_t c = 0; c < chunk_runs_.size(); ++c)
+    if (c >= set_chunks_.back())
+      std::vector<Run>().swap(chunk_runs_[c]);
+    else if (chunk_runs_[c].capacity() > 2 * chunk_runs_[c].size() + 256)
+      chunk_runs_[c].shrink_to_fit();
+  chunk_runs_.resize(set_chunks_.back());
 
   // The blocks that hold particles, sorted.
   run_keys_.clear();
-  for (const std::vector<Run>& runs : runs_)
-    for (const Run& r : runs) run_keys_.push_back(r.key);
+  for (const std::vector<Run>& runs : chunk_runs_)
+    for (const Run& r : runs) run_keys_.push_back(r.block);
   sortUnique(run_keys_);
   layout.particle_keys = run_keys_;
   layout.asleep.clear();  // all awake until a sleep tracker says otherwise
@@ -133,22 +133,24 @@ void Binner::bin(std::vector<ParticleSet>& sets, const Vec3f& shifted_origin, fl
   layout.offsets.resize(sets.size());
   for (size_t s = 0; s < sets.size(); ++s) {
     ParticleSet& set = sets[s];
-    std::vector<Run>& runs = runs_[s];
     std::vector<uint32_t>& off = layout.offsets[s];
     off.assign(nblocks + 1, 0);
     bool sorted = true;
-    for (size_t r = 0; r < runs.size(); ++r) {
-      runs[r].block = findKey(layout.particle_keys, runs[r].key);
-      off[runs[r].block + 1] += runs[r].end - runs[r].start;
-      sorted = sorted &&
-               (r == 0 || (runs[r - 1].block <= runs[r].block && runs[r - 1].end == runs[r].start));
-    }
+    const Run* prev = nullptr;
+    for (size_t c = set_chunks_[s]; c < set_chunks_[s + 1]; ++c)
+      for (Run& r : chunk_runs_[c]) {
+        r.block = findKey(layout.particle_keys, r.block);
+        off[r.block + 1] += r.end - r.start;
+        sorted = sorted && (!prev || (prev->block <= r.block && prev->end == r.start));
+        prev = &r;
+      }
     for (size_t b = 0; b < nblocks; ++b) off[b + 1] += off[b];
     if (sorted) continue;
     src_.resize(set.size());
     std::vector<uint32_t> cursor(off.begin(), off.end() - 1);
-    for (size_t r = 0; r < runs.size(); ++r)
-      for (uint32_t i = runs[r].start; i < runs[r].end; ++i) src_[cursor[runs[r].block]++] = i;
+    for (size_t c = set_chunks_[s]; c < set_chunks_[s + 1]; ++c)
+      for (const Run& r : chunk_runs_[c])
+        for (uint32_t i = r.start; i < r.end; ++i) src_[cursor[r.block]++] = i;
     std::vector<GridNode>& buffer = spare ? *spare : scratch_;
     const size_t need = set.size() * ParticleSet::kPermuteScratch;
     if (buffer.size() * sizeof(GridNode) < need)

@@ -99,12 +99,17 @@ class Binner {
  private:
   // Consecutive particles of one set in one block: [start, end).
   struct Run {
-    uint64_t key;
+    // The block's key, until the blocks are known; then its index into
+    // GridLayout::particle_keys (16 bytes a run: the first step's unsorted
+    // particles make a run of nearly every one).
+    uint64_t block;
     uint32_t start, end;
-    uint32_t block;  // index into GridLayout::particle_keys
   };
-  std::vector<std::vector<Run>> runs_;        // per set
-  std::vector<std::vector<Run>> chunk_runs_;  // per chunk of particles, reused
+  // Per chunk of particles, the chunks of all sets in turn (set s has
+  // chunks [set_chunks_[s], set_chunks_[s + 1])): reused between steps, and
+  // never copied into one list per set, which held them twice.
+  std::vector<std::vector<Run>> chunk_runs_;
+  std::vector<size_t> set_chunks_;
   std::vector<uint32_t> src_;                 // per particle: source index of the sorted order
   std::vector<GridNode> scratch_;             // without a spare buffer
   std::vector<uint64_t> run_keys_;
