@@ -25,9 +25,9 @@ const std::vector<QualityPreset>& qualityPresets() {
   // Chosen from the validation study (bench/RESULTS.md, "Validation:
   // accuracy against cost"): see the table there for each one's cost and error.
   static const std::vector<QualityPreset> presets = {
-      {"draft", 2.0, 8, 0.6, TransferScheme::Apic},
-      {"preview", 1.0, 8, 0.4, TransferScheme::Apic},
-      {"final", 0.5, 8, 0.2, TransferScheme::Apic},
+      {"draft", 2.0, 8, 0.6, TransferScheme::Apic, 1},
+      {"preview", 1.0, 8, 0.4, TransferScheme::Apic, 3},
+      {"final", 0.5, 8, 0.2, TransferScheme::Apic, 3},
   };
   return presets;
 }
@@ -79,6 +79,7 @@ void applyQuality(SceneDesc& scene, const std::string& name) {
   scene.solver.particles_per_cell = p->particles_per_cell;
   scene.solver.cfl = p->cfl;
   scene.solver.transfer = p->transfer;
+  scene.render.supersample = p->preview_supersample;
 }
 
 }  // namespace triad

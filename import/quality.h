@@ -2,7 +2,8 @@
 // Quality presets of `triad run --quality draft|preview|final`: one switch
 // that trades accuracy for cost. A preset scales the scene's domain.dx by a
 // factor (and an object's own sample_spacing with it) and sets
-// solver.particles_per_cell, solver.cfl and solver.transfer; everything else
+// solver.particles_per_cell, solver.cfl and solver.transfer, and the
+// preview's supersampling; everything else
 // stays as the scene writes it. Without a preset the scene
 // runs as written. The numbers come from the validation study of issue 7
 // (bench/validation/, bench/RESULTS.md "Validation: accuracy against cost").
@@ -20,6 +21,10 @@ struct QualityPreset {
   int particles_per_cell = 8;
   double cfl = 0.4;
   TransferScheme transfer = TransferScheme::Apic;
+  // The preview's supersampling (render.supersample): a draft's previews
+  // are for layout and timing, and at 3x their rendering took longer than
+  // the draft's simulation.
+  int preview_supersample = 3;
 };
 
 // The presets, coarsest first.

@@ -86,6 +86,7 @@ PreviewSettings previewSettingsForScene(const SceneDesc& scene) {
   PreviewSettings s;
   s.width = scene.render.resolution[0];
   s.height = scene.render.resolution[1];
+  s.supersample = scene.render.supersample;
   s.domain = {scene.domain.min, scene.domain.max};
   if (scene.render.camera) {
     s.camera = {scene.render.camera->eye, scene.render.camera->target, scene.render.camera->fov_deg};

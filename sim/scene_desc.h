@@ -218,6 +218,7 @@ struct RenderDesc {
   std::array<int, 2> resolution{640, 360};
   RenderStyle style = RenderStyle::Particles;
   bool legend = true;  // names and colours of what is drawn, top left
+  int supersample = 3;  // rendered at this many times the resolution, then box-filtered
   std::optional<CameraDesc> camera;  // absent: frame the domain automatically
 };
 

@@ -95,6 +95,38 @@ TEST(Quality, ObjectSampleSpacingFollowsDx) {
   EXPECT_EQ(s.objects[1].sample_spacing, 0.0);  // the default stays dx/2
 }
 
+// A draft's previews are rendered once per pixel, the others' at 3x: the
+// cache's preview settings say so, and the draft's image is the
+// resolution the scene asks for either way.
+TEST(Quality, DraftRendersPreviewsWithoutSupersampling) {
+  const fs::path dir = test::tempDir("quality_previews");
+  json j = qualityScene(1);
+  j["output"]["png"] = true;
+  j["render"] = {{"resolution", {160, 90}}};
+  const std::string scene = test::writeScene(dir, j);
+  ASSERT_EQ(run(dir, scene, dir / "draft", "--quality draft").status, 0);
+  ASSERT_EQ(run(dir, scene, dir / "preview", "--quality preview").status, 0);
+  ASSERT_EQ(run(dir, scene, dir / "as_written").status, 0);
+  auto supersample = [&](const char* name) {
+    return json::parse(slurp(dir / name / "preview/settings.json"))["supersample"].get<int>();
+  };
+  EXPECT_EQ(supersample("draft"), findQualityPreset("draft")->preview_supersample);
+  EXPECT_EQ(supersample("draft"), 1);
+  EXPECT_EQ(supersample("preview"), 3);
+  EXPECT_EQ(supersample("as_written"), 3);
+  for (const char* name : {"draft", "preview"}) {
+    const std::string png = slurp(dir / name / "preview/preview.0001.png");
+    ASSERT_GT(png.size(), 24u) << name;
+    // PNG's IHDR: width and height, big-endian, at bytes 16 and 20.
+    auto be32 = [&](size_t at) {
+      return (uint32_t(uint8_t(png[at])) << 24) | (uint32_t(uint8_t(png[at + 1])) << 16) |
+             (uint32_t(uint8_t(png[at + 2])) << 8) | uint32_t(uint8_t(png[at + 3]));
+    };
+    EXPECT_EQ(be32(16), 160u) << name;
+    EXPECT_EQ(be32(20), 90u) << name;
+  }
+}
+
 TEST(Quality, UnknownValueExitsTwoWithAMessage) {
   const fs::path dir = test::tempDir("quality_unknown");
   const std::string scene = test::writeScene(dir, qualityScene(1));

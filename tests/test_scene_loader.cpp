@@ -493,15 +493,16 @@ TEST_F(SceneLoaderTest, SurfaceMeshNamesAndSettings) {
 }
 
 // The quality presets are the ones scenes/README.md's table documents: dx
-// "2 ×", "as written" or "½ ×" the scene's, particles per cell, cfl and
-// transfer, for every preset the code has and no other.
+// "2 ×", "as written" or "½ ×" the scene's, particles per cell, cfl,
+// transfer and the previews' supersampling, for every preset the code has
+// and no other.
 TEST(QualityDocs, PresetsAreTheDocumentedOnes) {
   std::ifstream in(std::string(TRIAD_SOURCE_DIR) + "/scenes/README.md");
   std::string line;
   size_t rows = 0;
   while (std::getline(in, line)) {
     const std::vector<std::string> cells = tableCells(line);
-    if (cells.size() != 5 || !quoted(cells[0])) continue;
+    if (cells.size() != 6 || !quoted(cells[0])) continue;
     const std::string name = unquoted(cells[0]);
     const auto p = findQualityPreset(name);
     if (!p && name != "draft" && name != "preview" && name != "final") continue;
@@ -515,6 +516,7 @@ TEST(QualityDocs, PresetsAreTheDocumentedOnes) {
     EXPECT_EQ(p->particles_per_cell, std::stoi(cells[2])) << name;
     EXPECT_EQ(p->cfl, std::stod(cells[3])) << name;
     EXPECT_EQ("`" + transferName(p->transfer) + "`", cells[4]) << name;
+    EXPECT_EQ(p->preview_supersample, std::stoi(cells[5])) << name;
   }
   EXPECT_EQ(rows, qualityPresets().size()) << "every preset documented, once";
 }
