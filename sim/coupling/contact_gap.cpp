@@ -82,8 +82,7 @@ void GridCoupling::gapsOfBlock(uint32_t pb, const std::vector<ParticleSet>& sets
   for (int x = 0; x < kReach; ++x)
     for (int y = 0; y < kReach; ++y)
       for (int z = 0; z < kReach; ++z) {
-        const int32_t sl =
-            slot[size_t(((x >> kBlockBits) << 2) | ((y >> kBlockBits) << 1) | (z >> kBlockBits))];
+        const int32_t sl = slot[size_t(neighbourOf(Vec3i::Zero(), x, y, z))];
         Plane& pl = plane[x][y][z];
         pl = {-kFar, {0.0f, 0.0f, 0.0f}};
         if (sl >= 0) {
@@ -145,8 +144,7 @@ void GridCoupling::gapsOfBlock(uint32_t pb, const std::vector<ParticleSet>& sets
   for (int x = 0; x < kReach; ++x)
     for (int y = 0; y < kReach; ++y)
       for (int z = 0; z < kReach; ++z) {
-        const int32_t sl =
-            slot[size_t(((x >> kBlockBits) << 2) | ((y >> kBlockBits) << 1) | (z >> kBlockBits))];
+        const int32_t sl = slot[size_t(neighbourOf(Vec3i::Zero(), x, y, z))];
         if (sl < 0 || !slot_moving_[size_t(sl)] || least[x][y][z] >= kFar) continue;
         float& g = gap[uint32_t(sl) * kBlockNodes + localNode(x, y, z)];
         g = std::min(g, least[x][y][z]);

@@ -42,6 +42,14 @@ void forStencil(const Block& blk, const Vec3f& x, const TransferParams& p, F&& f
   forStencil(blk, stencilAt(x, p.shifted_origin, p.inv_dx), f);
 }
 
+// Bytes held by per-thread lists (capacity, not size).
+template <class T>
+size_t listBytes(const std::vector<std::vector<T>>& lists) {
+  size_t b = 0;
+  for (const auto& list : lists) b += list.capacity() * sizeof(T);
+  return b;
+}
+
 // Adds one sample's distance, carried along its normal to the node (dist =
 // phi_q + n_q . (x_i - x_q)), to the node's distance and normals.
 // As selects and an unconditional add rather than branches around each
@@ -696,14 +704,8 @@ size_t GridCoupling::bytes() const {
          order_.capacity() * 4 + blocks_.capacity() * sizeof(PointBlock) +
          point_key_.capacity() * 8 + front_.capacity() * sizeof(FrontSums) +
          (front_dv_.capacity() + rest_dv_.capacity()) * sizeof(Vec3f) + split_.capacity() * 8 +
-         frontListBytes() + slot_sources_.capacity() * sizeof(slot_sources_[0]) +
-         stencils_.capacity() * sizeof(Stencil) + gapThreadBytes();
-}
-
-size_t GridCoupling::gapThreadBytes() const {
-  size_t b = 0;
-  for (const auto& g : gap_threads_) b += g.capacity() * sizeof(float);
-  return b;
+         listBytes(front_lists_) + slot_sources_.capacity() * sizeof(slot_sources_[0]) +
+         stencils_.capacity() * sizeof(Stencil) + listBytes(gap_threads_);
 }
 
 }  // namespace triad

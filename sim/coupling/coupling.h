@@ -187,7 +187,6 @@ class GridCoupling {
   // solid's node their stencils reach, into `gap` (per slot node).
   void gapsOfBlock(uint32_t pb, const std::vector<ParticleSet>& sets, const GridLayout& layout,
                    const TransferParams& p, float* gap) const;
-  size_t gapThreadBytes() const;
   // measureNearSolids' pass over this process's particles.
   void scanNearSolids(const std::vector<ParticleSet>& sets, const GridLayout& layout,
                       const TransferParams& p, bool gaps, bool fronts);
@@ -225,11 +224,6 @@ class GridCoupling {
   std::vector<std::vector<FrontParticle>> front_lists_;  // per thread of the scan
   void correctFront(std::vector<ParticleSet>& sets, const GridLayout& layout,
                     const TransferParams& p, float c_scale, const FrontParticle& fp) const;
-  size_t frontListBytes() const {
-    size_t b = 0;
-    for (const auto& list : front_lists_) b += list.capacity() * sizeof(FrontParticle);
-    return b;
-  }
   std::vector<uint32_t> moving_;  // shared nodes of one moving rigid body
   bool fixed_built_ = false;
   std::vector<uint64_t> fixed_keys_;     // grid blocks fixed solids reach, sorted

@@ -111,12 +111,9 @@ void Binner::bin(std::vector<ParticleSet>& sets, const Vec3f& shifted_origin, fl
   }
   // Unsorted input (the first step) has many short runs: do not keep the
   // memory once the particles are sorted, nor chunks no set uses now.
-  for (size_t c = 0; c < chunk_runs_.size(); ++c)
-    if (c >= set_chunks_.back())
-      std::vector<Run>().swap(chunk_runs_[c]);
-    else if (chunk_runs_[c].capacity() > 2 * chunk_runs_[c].size() + 256)
-      chunk_runs_[c].shrink_to_fit();
   chunk_runs_.resize(set_chunks_.back());
+  for (std::vector<Run>& runs : chunk_runs_)
+    if (runs.capacity() > 2 * runs.size() + 256) runs.shrink_to_fit();
 
   // The blocks that hold particles, sorted.
   run_keys_.clear();
