@@ -571,10 +571,10 @@ void Solver::pushOutOfSolids(double dt) {
   const size_t nb = world_.bodies.size();
   const double dx = world_.scene.domain.dx;
   std::vector<Mat3d> rot;
-  std::vector<Vec3d> omega;
+  std::vector<LatticeBox> boxes;
   for (const RigidBody& b : world_.bodies) {
     rot.push_back(b.rotation());
-    omega.push_back(b.omega());
+    boxes.push_back(b.latticeBox());
   }
   // Impulses summed per particle block, then over the blocks in the order
   // of their keys: the same sums for any thread count, and for any split
@@ -585,11 +585,12 @@ void Solver::pushOutOfSolids(double dt) {
   };
   size_t moved = 0;
   const double block_reach = (std::sqrt(3.0) * 0.5 * kBlockSize + 1.0) * dx;
+  float shifted = 0.0f;  // the farthest a particle was moved here
   for (size_t si = 0; si < world_.sets.size() && nb > 0; ++si) {
     ParticleSet& set = world_.sets[si];
     const std::vector<uint32_t>& off = layout_.offsets[si];
     std::vector<Push> partial;
-#pragma omp parallel reduction(+ : moved)
+#pragma omp parallel reduction(+ : moved) reduction(max : shifted)
     {
       std::vector<Push> mine, acc(nb);
       std::vector<uint8_t> touched(nb), near(nb);
@@ -597,21 +598,22 @@ void Solver::pushOutOfSolids(double dt) {
       for (int64_t pb = 0; pb < int64_t(layout_.particleBlocks()); ++pb) {
         if (off[pb] == off[pb + 1]) continue;
         std::fill(touched.begin(), touched.end(), 0);
-        // Only bodies whose bounding sphere meets the block's (its particles
-        // lie within half a cell of its cells).
+        // Only bodies that the block's sphere meets (its particles lie
+        // within half a cell of its cells).
         const Vec3d centre = blockCentre(layout_.particle_keys[size_t(pb)]);
         bool any = false;
         for (size_t bi = 0; bi < nb; ++bi) {
-          const double r = double(world_.bodies[bi].radius) + block_reach;
-          near[bi] = (centre - world_.bodies[bi].state.x).squaredNorm() <= r * r;
+          near[bi] = boxes[bi].mayReach(centre, block_reach);
           any = any || near[bi];
         }
         if (!any) continue;
         for (int64_t i = off[pb]; i < int64_t(off[pb + 1]); ++i) {
+          const Vec3f start = set.x[i];
           for (size_t bi = 0; bi < nb; ++bi) {
             if (!near[bi]) continue;
             const RigidBody& b = world_.bodies[bi];
             const Vec3d x = set.x[i].cast<double>();
+            if (!boxes[bi].mayReach(x, 0.0)) continue;  // most particles near a body
             double phi;
             Vec3d n, vb;
             if (!b.surfaceAt(x, rot[bi], phi, n, vb) || phi >= 0.0) continue;
@@ -649,6 +651,7 @@ void Solver::pushOutOfSolids(double dt) {
             }
             ++moved;
           }
+          shifted = std::max(shifted, (set.x[i] - start).norm());
         }
         for (size_t bi = 0; bi < nb; ++bi)
           if (touched[bi]) mine.push_back(acc[bi]);
@@ -672,7 +675,16 @@ void Solver::pushOutOfSolids(double dt) {
     }
   }
   // Elastic solids: particles inside their deformed meshes.
-  for (ElasticSolid& e : world_.elastics) moved += pushParticlesOut(e, world_.sets, dt, domain_);
+  if (!world_.elastics.empty()) {
+    // The blocks' spheres grow by the farthest the bodies' push-out just
+    // moved a particle (back through a thin part: a cell or two).
+    ParticleBlocks blocks;
+    blocks.offsets = &layout_.offsets;
+    blocks.radius = block_reach + double(shifted);
+    for (const uint64_t key : layout_.particle_keys) blocks.centre.push_back(blockCentre(key));
+    for (ElasticSolid& e : world_.elastics)
+      moved += pushParticlesOut(e, world_.sets, dt, blocks, domain_);
+  }
   pushed_out_ = moved;
 }
 

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <optional>
 
 #include "sim/mpm/domain.h"
 #include "sim/mpm/particles.h"
@@ -217,13 +218,18 @@ double inverseMass(const FemBody& b, int node) {
 }
 
 // A solid at the end of the step: node positions x + dt v, their bounding
-// box, and its tetrahedra binned for point queries.
+// box, and its tetrahedra binned for point queries (binned only when a
+// query may fall inside the box: most steps of most solids have none).
 struct EndOfStep {
+  const FemBody& body;
   std::vector<Vec3d> y;
   Box box;
-  TetBins bins;
-  EndOfStep(const FemBody& f, double dt) : y(endPositions(f, dt)), bins(y, f.mesh) {
+  std::optional<TetBins> bins;
+  EndOfStep(const FemBody& f, double dt) : body(f), y(endPositions(f, dt)) {
     for (const Vec3d& p : y) box.add(p);
+  }
+  void bin() {
+    if (!bins) bins.emplace(y, body.mesh);
   }
   static std::vector<Vec3d> endPositions(const FemBody& f, double dt) {
     std::vector<Vec3d> y(f.nodes());
@@ -255,7 +261,7 @@ bool findPenetration(const ElasticSolid& b, const EndOfStep& end, const Vec3d& x
   const FemBody& fb = b.fem;
   if (!end.box.contains(x)) return false;
   bool found = false;
-  end.bins.find(x, [&](int t) {
+  end.bins->find(x, [&](int t) {
     const auto& n = fb.mesh.tets[size_t(t)];
     const std::array<double, 4> w = barycentric(end.y, n, x);
     if (*std::min_element(w.begin(), w.end()) < -1e-9) return false;  // not this one
@@ -310,8 +316,9 @@ size_t pushOut(ElasticSolid& a, ElasticSolid& b, double dt) {
   FemBody& fb = b.fem;
   Box ba;
   for (size_t i = 0; i < fa.nodes(); ++i) ba.add(fa.x[i] + dt * fa.v[i]);
-  const EndOfStep end(fb, dt);
+  EndOfStep end(fb, dt);
   if (!ba.overlaps(end.box)) return 0;
+  end.bin();
   const double mu = std::sqrt(double(a.friction) * double(b.friction));
   size_t contacts = 0;
   for (size_t i = 0; i < fa.nodes(); ++i) {
@@ -348,31 +355,51 @@ size_t pushOut(ElasticSolid& a, ElasticSolid& b, double dt) {
 }  // namespace
 
 size_t pushParticlesOut(ElasticSolid& b, std::vector<ParticleSet>& sets, double dt,
-                        DomainExchange* domain) {
+                        const ParticleBlocks& blocks, DomainExchange* domain) {
   FemBody& fb = b.fem;
-  const EndOfStep end(fb, dt);
+  EndOfStep end(fb, dt);
+  // The blocks whose particles may end inside: those whose sphere meets
+  // the solid's box.
+  std::vector<uint32_t> near;
+  for (size_t pb = 0; pb < blocks.centre.size(); ++pb) {
+    const Vec3d& c = blocks.centre[pb];
+    const Vec3d out = (end.box.lo - c).cwiseMax(c - end.box.hi).cwiseMax(0.0);
+    if (out.squaredNorm() <= blocks.radius * blocks.radius) near.push_back(uint32_t(pb));
+  }
+  // Split over processes, every process takes part in the exchange below.
+  if (near.empty() && !domain) return 0;
+  if (!near.empty()) end.bin();
   size_t moved = 0;
-  for (ParticleSet& set : sets) {
+  for (size_t s = 0; s < sets.size(); ++s) {
+    ParticleSet& set = sets[s];
     const double mp = double(set.mass);
     // Found in parallel (each particle on its own, against the solid's
     // velocities before this pass), then applied in the order of the
     // particles' ids, each against the velocities the ones before it left:
     // the solid's nodes take the same sums on any number of threads or
     // processes.
-    // Chunks of fixed size, dealt out as threads come free: the particles
-    // near a solid lie together in the sorted order, so equal shares per
-    // thread left one thread with all of them.
-    constexpr int64_t kChunk = 2048;
-    const int64_t count = int64_t(set.size());
-    const int64_t chunks = (count + kChunk - 1) / kChunk;
-    std::vector<std::vector<std::pair<uint32_t, Penetration>>> part(static_cast<size_t>(chunks));
-#pragma omp parallel for schedule(dynamic, 1) if (chunks > 1)
-    for (int64_t c = 0; c < chunks; ++c)
-      for (int64_t p = c * kChunk; p < std::min(count, (c + 1) * kChunk); ++p) {
+    // Pieces of at most a fixed size, dealt out as threads come free: the
+    // particles near a solid lie together in the sorted order, so equal
+    // shares per thread left one thread with all of them.
+    constexpr uint32_t kPiece = 2048;
+    const std::vector<uint32_t>& off = (*blocks.offsets)[s];
+    std::vector<std::pair<uint32_t, uint32_t>> pieces;
+    for (const uint32_t pb : near)
+      for (uint32_t p = off[pb]; p < off[pb + 1]; p += kPiece) {
+        const uint32_t e = std::min(off[pb + 1], p + kPiece);
+        if (!pieces.empty() && pieces.back().second == p && e - pieces.back().first <= kPiece)
+          pieces.back().second = e;  // a run of small blocks in one piece
+        else
+          pieces.emplace_back(p, e);
+      }
+    std::vector<std::vector<std::pair<uint32_t, Penetration>>> part(pieces.size());
+#pragma omp parallel for schedule(dynamic, 1) if (pieces.size() > 1)
+    for (int64_t c = 0; c < int64_t(pieces.size()); ++c)
+      for (uint32_t p = pieces[size_t(c)].first; p < pieces[size_t(c)].second; ++p) {
         Penetration pen;
-        if (findPenetration(b, end, set.x[size_t(p)].cast<double>(),
-                            set.v[size_t(p)].cast<double>(), Vec3d::Zero(), dt, pen))
-          part[size_t(c)].emplace_back(uint32_t(p), pen);
+        if (findPenetration(b, end, set.x[p].cast<double>(), set.v[p].cast<double>(), Vec3d::Zero(),
+                            dt, pen))
+          part[size_t(c)].emplace_back(p, pen);
       }
     // Every hit with the particle's state: split over processes, every
     // process's.

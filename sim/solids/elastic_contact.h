@@ -16,6 +16,7 @@
 // tetrahedron's four nodes by mass and barycentric weight, so momentum is
 // kept, with Coulomb friction at the pair's geometric-mean coefficient.
 #include <cstddef>
+#include <cstdint>
 #include <vector>
 
 #include "sim/solids/elastic_solid.h"
@@ -39,7 +40,15 @@ ElasticContactStats resolveElasticContacts(std::vector<ElasticSolid>& solids, do
 // hits in process order, so that the solid changes alike everywhere.
 struct ParticleSet;
 class DomainExchange;
+// Where the particles lie: the binning's blocks (per set, offsets into the
+// sorted particles, block b holding [offsets[s][b], offsets[s][b + 1])) and
+// a sphere about each block that holds its particles now.
+struct ParticleBlocks {
+  const std::vector<std::vector<uint32_t>>* offsets = nullptr;
+  std::vector<Vec3d> centre;
+  double radius = 0.0;
+};
 size_t pushParticlesOut(ElasticSolid& solid, std::vector<ParticleSet>& sets, double dt,
-                        DomainExchange* domain = nullptr);
+                        const ParticleBlocks& blocks, DomainExchange* domain = nullptr);
 
 }  // namespace triad

@@ -142,6 +142,22 @@ int RigidBody::supportAt(const Vec3d& p, const Mat3d& R) const {
   return best;
 }
 
+LatticeBox RigidBody::latticeBox() const {
+  LatticeBox box;
+  box.centre = state.x;
+  box.radius = double(radius);
+  if (placed) return box;
+  box.boxed = true;
+  // latticeCell's map to the rest frame, as one matrix.
+  box.to_rest = principal.toRotationMatrix() * state.q_principal.conjugate().toRotationMatrix();
+  // The cells reach half a spacing beyond their centres; as much again
+  // covers the rounding of either map.
+  const double h = double(spacing);
+  box.lo = lattice_origin - Vec3d::Constant(h);
+  box.hi = lattice_origin + h * cell_dims.cast<double>();
+  return box;
+}
+
 bool RigidBody::distanceAt(const Vec3d& p, const Mat3d& R, double& phi_out, Vec3d& n_out) const {
   if ((p - state.x).squaredNorm() > double(radius) * radius) return false;
   if (placed) {

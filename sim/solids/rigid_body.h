@@ -29,6 +29,27 @@ struct RigidState {
   Vec3d L = Vec3d::Zero();                  // angular momentum about the centre, world
 };
 
+// Where a body's distance can be found: its bounding sphere and, for a
+// body of rigid samples, its sample lattice's box in the rest frame, which
+// is much tighter for a long or flat body (a wall, a floor) whose sphere
+// covers most of a scene. Both with a margin: a point or a sphere that
+// misses them is certainly outside the lattice.
+struct LatticeBox {
+  Vec3d centre = Vec3d::Zero();  // the bounding sphere's
+  double radius = 0.0;
+  bool boxed = false;  // false: the sphere only (a deforming body)
+  Mat3d to_rest = Mat3d::Identity();
+  Vec3d lo = Vec3d::Zero(), hi = Vec3d::Zero();
+  // Whether a point within `reach` of world point p may lie in the lattice.
+  bool mayReach(const Vec3d& p, double reach) const {
+    const double sphere = radius + reach;
+    if ((p - centre).squaredNorm() > sphere * sphere) return false;
+    if (!boxed) return true;
+    const Vec3d rest = to_rest * (p - centre);
+    return (lo - rest).cwiseMax(rest - hi).cwiseMax(0.0).squaredNorm() <= reach * reach;
+  }
+};
+
 struct RigidBody {
   int object = -1;  // index into SceneDesc::objects
   std::string name;
@@ -103,6 +124,8 @@ struct RigidBody {
   // normal, with R = rotation(). False outside the bounding sphere or the
   // sample lattice (outside, or deeper than the kept samples).
   bool distanceAt(const Vec3d& p, const Mat3d& R, double& phi_out, Vec3d& n_out) const;
+  // Where distanceAt can answer, as a box for quick rejects (see LatticeBox).
+  LatticeBox latticeBox() const;
   // The sample whose plane (its distance carried along its normal) lies
   // furthest out at world point p, among those of the 27 lattice cells
   // around p's, or -1: the body's surface as the envelope of its samples'
