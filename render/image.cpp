@@ -139,24 +139,36 @@ void drawLegend(Image& img, const std::vector<LegendEntry>& entries) {
   }
 }
 
+std::array<int, 2> thumbnailSize(int width, int height, int thumb_width) {
+  const int tw = std::max(8, std::min(thumb_width, width));
+  return {tw, std::max(1, int(std::lround(double(tw) * height / std::max(1, width))))};
+}
+
 Image contactSheet(const std::vector<Image>& frames, const std::vector<int>& labels,
                    int thumb_width, int max_columns) {
   if (frames.empty()) return Image();
-  const Image& first = frames.front();
-  const int tw = std::max(8, std::min(thumb_width, first.width));
-  const int th = std::max(1, int(std::lround(double(tw) * first.height / std::max(1, first.width))));
-  const int n = int(frames.size());
+  const auto [tw, th] = thumbnailSize(frames.front().width, frames.front().height, thumb_width);
+  std::vector<Image> thumbs;
+  for (const Image& f : frames) thumbs.push_back(resizeDown(f, tw, th));
+  return contactSheetOfThumbnails(thumbs, labels, max_columns);
+}
+
+Image contactSheetOfThumbnails(const std::vector<Image>& thumbs, const std::vector<int>& labels,
+                               int max_columns) {
+  if (thumbs.empty()) return Image();
+  const int tw = thumbs.front().width, th = thumbs.front().height;
+  const int n = int(thumbs.size());
   const int cols = std::max(1, std::min(n, max_columns));
   const int rows = (n + cols - 1) / cols;
   const int gap = 4;
   Image sheet(cols * tw + (cols + 1) * gap, rows * th + (rows + 1) * gap, 40);
   const uint8_t text_bg[3] = {0, 0, 0}, text_fg[3] = {255, 255, 255};
   for (int i = 0; i < n; ++i) {
-    const Image thumb = resizeDown(frames[size_t(i)], tw, th);
+    const Image& thumb = thumbs[size_t(i)];
     const int ox = gap + (i % cols) * (tw + gap), oy = gap + (i / cols) * (th + gap);
     for (int y = 0; y < th; ++y)
       std::copy(thumb.at(0, y), thumb.at(0, y) + size_t(tw) * 3, sheet.at(ox, oy + y));
-    if (labels.size() == frames.size()) {
+    if (labels.size() == thumbs.size()) {
       const int scale = tw >= 192 ? 2 : 1;
       const int digits = int(std::to_string(labels[size_t(i)]).size());
       const int bw = digits * 4 * scale + scale, bh = 7 * scale;

@@ -53,6 +53,12 @@ void drawLegend(Image& img, const std::vector<LegendEntry>& entries);
 // each labelled with its number from `labels` (same length, or empty for none).
 Image contactSheet(const std::vector<Image>& frames, const std::vector<int>& labels,
                    int thumb_width = 256, int max_columns = 8);
+// The size contactSheet gives the thumbnails of frames of this size.
+std::array<int, 2> thumbnailSize(int width, int height, int thumb_width = 256);
+// contactSheet from thumbnails already made (resizeDown to thumbnailSize of
+// the frames), all of one size.
+Image contactSheetOfThumbnails(const std::vector<Image>& thumbs, const std::vector<int>& labels,
+                               int max_columns = 8);
 
 // The golden-image metric. Two images of the same size differ "visibly" at a
 // pixel when the largest of the three channel differences exceeds

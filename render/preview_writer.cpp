@@ -1,5 +1,6 @@
 #include "render/preview_writer.h"
 
+#include <array>
 #include <chrono>
 #include <cstdlib>
 #include <filesystem>
@@ -46,17 +47,33 @@ PreviewMesh previewMesh(const TriSurface& surface, int object) {
   return m;
 }
 
-int writeContactSheet(const std::string& out_dir) {
+int writeContactSheet(const std::string& out_dir, const std::map<int, HeldThumbnail>& held) {
   const auto frames = listFrameFiles(out_dir + "/preview", "preview", "png");
   if (frames.empty()) return 0;
-  std::vector<Image> images;
+  // The first frame's size sets the thumbnails' (as contactSheet does).
+  const auto first = held.find(frames.begin()->first);
+  std::array<int, 2> size;
+  Image first_image;
+  if (first != held.end()) {
+    size = thumbnailSize(first->second.width, first->second.height);
+  } else {
+    first_image = readPng(frames.begin()->second);
+    size = thumbnailSize(first_image.width, first_image.height);
+  }
+  std::vector<Image> thumbs;
   std::vector<int> labels;
   for (const auto& [frame, path] : frames) {
-    images.push_back(readPng(path));
+    const auto h = held.find(frame);
+    if (h != held.end() && h->second.thumb.width == size[0] && h->second.thumb.height == size[1]) {
+      thumbs.push_back(h->second.thumb);
+    } else {
+      const Image image = thumbs.empty() && !first_image.empty() ? first_image : readPng(path);
+      thumbs.push_back(resizeDown(image, size[0], size[1]));
+    }
     labels.push_back(frame);
   }
-  writePng(contactSheetPath(out_dir), contactSheet(images, labels));
-  return int(images.size());
+  writePng(contactSheetPath(out_dir), contactSheetOfThumbnails(thumbs, labels));
+  return int(thumbs.size());
 }
 
 PreviewWriter::PreviewWriter(const SceneDesc& scene, const std::string& out_dir)
@@ -76,13 +93,16 @@ double PreviewWriter::writeFrame(const World& world, int frame,
     f.object.clear();
   }
   f.meshes.insert(f.meshes.end(), meshes.begin(), meshes.end());
-  writePng(previewImagePath(out_dir_, frame), renderer_->render(f));
+  const Image image = renderer_->render(f);
+  writePng(previewImagePath(out_dir_, frame), image);
+  const auto [tw, th] = thumbnailSize(image.width, image.height);
+  thumbnails_[frame] = {image.width, image.height, resizeDown(image, tw, th)};
   return seconds(t0);
 }
 
 double PreviewWriter::finish() {
   const auto t0 = std::chrono::steady_clock::now();
-  writeContactSheet(out_dir_);
+  writeContactSheet(out_dir_, thumbnails_);
   return seconds(t0);
 }
 

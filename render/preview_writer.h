@@ -2,6 +2,7 @@
 // Previews in the run pipeline: frames built from a triad::World, written as
 // OUT/preview/preview.FFFF.png with one renderer kept for the whole run, and
 // the contact sheet OUT/preview/contact_sheet.png.
+#include <map>
 #include <memory>
 #include <string>
 
@@ -18,12 +19,20 @@ PreviewFrame previewFrameFromWorld(const World& world);
 // A world-space surface as a mesh to draw in scene object `object`'s colour.
 PreviewMesh previewMesh(const TriSurface& surface, int object);
 
+// A preview's thumbnail for the contact sheet, made when the preview was
+// written, and the size of the preview it came from.
+struct HeldThumbnail {
+  int width = 0, height = 0;
+  Image thumb;
+};
 
 // Thumbnails of every OUT/preview/preview.FFFF.png in frame order, labelled
 // with frame numbers, written atomically to OUT/preview/contact_sheet.png.
-// Returns the number of frames on the sheet (0: no previews, nothing written).
-// Throws std::runtime_error naming a file that cannot be read or written.
-int writeContactSheet(const std::string& out_dir);
+// Frames in `held` take their thumbnail from there; the others are read
+// back (a resumed run's earlier frames). Returns the number of frames on
+// the sheet (0: no previews, nothing written). Throws std::runtime_error
+// naming a file that cannot be read or written.
+int writeContactSheet(const std::string& out_dir, const std::map<int, HeldThumbnail>& held = {});
 
 // What app/run_scene.cpp holds during a run with output.png.
 class PreviewWriter {
@@ -49,6 +58,9 @@ class PreviewWriter {
   std::string out_dir_;
   PreviewSettings settings_;
   std::unique_ptr<PreviewRenderer> renderer_;
+  // Made as each frame is written, so that the contact sheet at the end
+  // reads no preview back (reading them was most of the sheet's time).
+  std::map<int, HeldThumbnail> thumbnails_;
 };
 
 }  // namespace triad::render

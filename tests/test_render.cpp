@@ -441,6 +441,42 @@ TEST(ContactSheet, GridOfThumbnailsWithLabels) {
   EXPECT_EQ(back.width, 3 * 64 + 4 * 4);
 }
 
+// A run keeps each preview's thumbnail as it writes it; the sheet at the
+// end reads back only the frames it does not hold (a resumed run's earlier
+// ones), and comes out the same either way.
+TEST(ContactSheet, HeldThumbnailsGiveTheSheetOfThePreviewsOnDisk) {
+  const fs::path dir = test::tempDir("contact_sheet_held");
+  fs::create_directories(dir / "preview");
+  std::vector<Image> images;
+  for (int i = 0; i < 3; ++i) {
+    Image img = pattern(300, 170);
+    for (size_t k = 0; k < img.rgb.size(); k += 3) img.rgb[k] = uint8_t(img.rgb[k] + 60 * i);
+    writePng(previewImagePath(dir.string(), i), img);
+    images.push_back(img);
+  }
+  auto held = [&](const Image& img) {
+    const auto [tw, th] = thumbnailSize(img.width, img.height);
+    return HeldThumbnail{img.width, img.height, resizeDown(img, tw, th)};
+  };
+  ASSERT_EQ(writeContactSheet(dir.string()), 3);
+  const Image from_disk = readPng(contactSheetPath(dir.string()));
+  EXPECT_EQ(from_disk.rgb, contactSheet(images, {0, 1, 2}).rgb);
+  // Frame 0 read back, frames 1 and 2 held.
+  ASSERT_EQ(writeContactSheet(dir.string(), {{1, held(images[1])}, {2, held(images[2])}}), 3);
+  EXPECT_EQ(readPng(contactSheetPath(dir.string())).rgb, from_disk.rgb);
+  // Every frame held.
+  ASSERT_EQ(writeContactSheet(dir.string(),
+                              {{0, held(images[0])}, {1, held(images[1])}, {2, held(images[2])}}),
+            3);
+  EXPECT_EQ(readPng(contactSheetPath(dir.string())).rgb, from_disk.rgb);
+  // A held thumbnail is what the sheet shows (not the file read again)...
+  ASSERT_EQ(writeContactSheet(dir.string(), {{2, held(images[0])}}), 3);
+  EXPECT_NE(readPng(contactSheetPath(dir.string())).rgb, from_disk.rgb);
+  // ...unless its size is not the sheet's: then the file is read.
+  ASSERT_EQ(writeContactSheet(dir.string(), {{2, held(pattern(150, 170))}}), 3);
+  EXPECT_EQ(readPng(contactSheetPath(dir.string())).rgb, from_disk.rgb);
+}
+
 TEST(GoldenMetric, IdenticalPassesShiftedFails) {
   const Image a = pattern(100, 60);
   ImageDiff d = compareImages(a, a);
