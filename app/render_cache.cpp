@@ -98,6 +98,7 @@ int renderCache(const RenderCacheOptions& options) {
 
   const auto t0 = std::chrono::steady_clock::now();
   int rendered = 0;
+  std::map<int, render::HeldThumbnail> held;  // for the contact sheet: no preview read back
   try {
     if (write_settings) render::writePreviewSettings(dir, settings);
     else fs::create_directories(fs::path(dir) / "preview");
@@ -140,10 +141,12 @@ int renderCache(const RenderCacheOptions& options) {
           std::fprintf(stderr, "triad: %d earlier frame(s) were re-rendered\n", rendered);
         return kExitBadInput;
       }
-      render::writePng(render::previewImagePath(dir, number), renderer.render(frame));
+      const render::Image image = renderer.render(frame);
+      render::writePng(render::previewImagePath(dir, number), image);
+      held[number] = render::holdThumbnail(image);
       ++rendered;
     }
-    render::writeContactSheet(dir);
+    render::writeContactSheet(dir, held);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "triad: error: %s\n", e.what());
     return kExitRunFailed;

@@ -47,6 +47,11 @@ PreviewMesh previewMesh(const TriSurface& surface, int object) {
   return m;
 }
 
+HeldThumbnail holdThumbnail(const Image& preview) {
+  const auto [tw, th] = thumbnailSize(preview.width, preview.height);
+  return {preview.width, preview.height, resizeDown(preview, tw, th)};
+}
+
 int writeContactSheet(const std::string& out_dir, const std::map<int, HeldThumbnail>& held) {
   const auto frames = listFrameFiles(out_dir + "/preview", "preview", "png");
   if (frames.empty()) return 0;
@@ -95,8 +100,7 @@ double PreviewWriter::writeFrame(const World& world, int frame,
   f.meshes.insert(f.meshes.end(), meshes.begin(), meshes.end());
   const Image image = renderer_->render(f);
   writePng(previewImagePath(out_dir_, frame), image);
-  const auto [tw, th] = thumbnailSize(image.width, image.height);
-  thumbnails_[frame] = {image.width, image.height, resizeDown(image, tw, th)};
+  thumbnails_[frame] = holdThumbnail(image);
   return seconds(t0);
 }
 

@@ -25,6 +25,7 @@ struct HeldThumbnail {
   int width = 0, height = 0;
   Image thumb;
 };
+HeldThumbnail holdThumbnail(const Image& preview);
 
 // Thumbnails of every OUT/preview/preview.FFFF.png in frame order, labelled
 // with frame numbers, written atomically to OUT/preview/contact_sheet.png.
