@@ -454,10 +454,7 @@ TEST(ContactSheet, HeldThumbnailsGiveTheSheetOfThePreviewsOnDisk) {
     writePng(previewImagePath(dir.string(), i), img);
     images.push_back(img);
   }
-  auto held = [&](const Image& img) {
-    const auto [tw, th] = thumbnailSize(img.width, img.height);
-    return HeldThumbnail{img.width, img.height, resizeDown(img, tw, th)};
-  };
+  auto held = [](const Image& img) { return holdThumbnail(img); };
   ASSERT_EQ(writeContactSheet(dir.string()), 3);
   const Image from_disk = readPng(contactSheetPath(dir.string()));
   EXPECT_EQ(from_disk.rgb, contactSheet(images, {0, 1, 2}).rgb);

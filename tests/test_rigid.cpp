@@ -200,5 +200,45 @@ TEST(RigidBody, BodiesDoNotPassThroughEachOther) {
   EXPECT_NEAR(b.state.v.x(), v_common, 0.05 * 3);
 }
 
+// The push-out skips particles outside a body's lattice box: the box must
+// hold every point where the body's distance answers (turned and moved as
+// the body is), and be much tighter than the bounding sphere for a wall.
+TEST(RigidBody, LatticeBoxHoldsEveryPointTheDistanceAnswers) {
+  json j = test::baseScene("lattice_box", {1, 1, 1}, 0.02);
+  j["objects"].push_back(rigid("wall", box({0.2, 0.47, 0.4}, {0.8, 0.53, 0.6}), 800));
+  World w = test::loadWorld(test::tempDir("rigid_lattice_box"), j);
+  RigidBody& b = w.bodies[0];
+  b.state.q_principal =
+      (Quatd(Eigen::AngleAxisd(0.7, Vec3d(1, 2, 3).normalized())) * b.state.q_principal)
+          .normalized();
+  b.state.x += Vec3d(0.013, -0.021, 0.008);
+  const Mat3d R = b.rotation();
+  const LatticeBox lattice = b.latticeBox();
+  uint64_t seed = 12345;
+  auto uniform = [&] {
+    seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+    return double(seed >> 11) * 0x1.0p-53 * 2.0 - 1.0;
+  };
+  int answered = 0, in_sphere = 0, culled = 0;
+  for (int k = 0; k < 200000; ++k) {
+    const Vec3d p = b.state.x + double(b.radius) * Vec3d(uniform(), uniform(), uniform());
+    if ((p - b.state.x).norm() > b.radius) continue;
+    ++in_sphere;
+    double phi;
+    Vec3d n;
+    const bool reach = lattice.mayReach(p, 0.0);
+    culled += reach ? 0 : 1;
+    if (!b.distanceAt(p, R, phi, n)) continue;
+    ++answered;
+    ASSERT_TRUE(reach) << "a point with a distance outside the box: " << p.transpose();
+  }
+  EXPECT_GT(answered, 1000);
+  // The wall (0.6 x 0.06 x 0.2 m) fills a small part of its sphere.
+  EXPECT_GT(culled, in_sphere * 8 / 10) << culled << " of " << in_sphere;
+  // A sphere about a point misses the box only when no point of it is in.
+  const Vec3d beside = b.state.x + R * (b.principal.conjugate() * Vec3d(0, 0.03 + 0.05, 0));
+  EXPECT_TRUE(lattice.mayReach(beside, 0.06));
+}
+
 }  // namespace
 }  // namespace triad
