@@ -17,8 +17,12 @@ constexpr int32_t kNoSlot = -1;
 constexpr int kNewtonIterations = 50;
 
 // A node no solid reaches: no mass, and as far outside as can be.
-const GridCoupling::SolidNode kEmptyNode{0,         {0, 0, 0}, {0, 0, 0}, 0, 0, {0, 0, 0},
-                                         -1e30f,    {0, 0, 0}, {0, 0, 0}, 0, 0, 0};
+const GridCoupling::SolidNode kEmptyNode{0, {0, 0, 0}, {0, 0, 0}, 0, 0, {0, 0, 0}, {0, 0, 0},
+                                         0, -1e30f,    {0, 0, 0}, 0, 0, 0,         0};
+
+// A row of a SolidNode's sums.
+typedef float Row8 __attribute__((vector_size(32), may_alias));
+typedef int32_t Mask8 __attribute__((vector_size(32)));
 
 // Calls f(w, slot node index, node - x in cells) for every node of point x's quadratic stencil
 // that lies in one of base block blk's eight grid blocks with a slot.
@@ -231,12 +235,32 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
         const float mu = pts.friction[solid];
         const bool driven = pts.kind[solid] == SolidKind::Driven;
         const int32_t tag = int32_t(solid) + 1;
+        // Which lanes of the two rows of sums take w (normals, distances)
+        // rather than w m; the second row's mass lanes only for driven solids.
+        const Mask8 by_w = {0, 0, 0, 0, -1, -1, -1, 0};
+        // The third row's lanes: phi, dn, then the tags solid, fixed_solid
+        // and owner. A tag lane merges its solid's tag (the tag where it was
+        // 0 or the same, -1 for several; merging -1 gives -1), or is kept.
+        const Mask8 first1 = {-1, 0, 0, 0, 0, 0, 0, 0}, first4 = {-1, -1, -1, -1, 0, 0, 0, 0};
+        // Driven: infinite mass, like a fixed solid, but moving; never a
+        // moving body's node.
+        const Mask8 tag_v =
+            driven ? Mask8{0, 0, 0, 0, -1, tag, tag, 0} : Mask8{0, 0, 0, 0, tag, 0, tag, 0};
+        const Mask8 keep =
+            driven ? Mask8{-1, -1, -1, -1, 0, 0, 0, -1} : Mask8{-1, -1, -1, -1, 0, -1, 0, -1};
         for (uint32_t q = order_[o]; q < order_[o + 1]; ++q) {
           const float m = pts.point_mass[q];
           const Vec3f& v = pts.v[q];
           const Vec3f& nq = pts.n[q];
           const float phi = pts.phi[q];
           const Stencil& st = stencils_[q];
+          // What each row adds per unit of its weights: w m (1, v, -, mu)
+          // and w n; then w m (1, v) for solids of infinite mass and the
+          // outside weight times n.
+          const Row8 row_a = {1.0f, v[0], v[1], v[2], nq[0], nq[1], nq[2], mu};
+          const Row8 row_b = {1.0f, v[0], v[1], v[2], nq[0], nq[1], nq[2], 0.0f};
+          const float mass_b = driven ? 1.0f : 0.0f;
+          const Row8 normal_c = {0.0f, nq[0], nq[1], nq[2], 0.0f, 0.0f, 0.0f, 0.0f};
           // The stencil's offsets along each axis that land in this slot.
           int lo[3], hi[3], l[3];
           for (int e = 0; e < 3; ++e) {
@@ -250,23 +274,19 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
                 const float w = st.w[0][a] * st.w[1][b] * st.w[2][c];
                 const Vec3f r(float(a) - st.fx[0], float(b) - st.fx[1], float(c) - st.fx[2]);
                 SolidNode& g = slot_nodes[localNode(l[0] + a, l[1] + b, l[2] + c)];
-                g.m += w * m;
-                addSampleDistance(g, w, phi + p.dx * nq.dot(r), nq);
-                for (int e = 0; e < 3; ++e) {
-                  g.p[e] += w * m * v[e];
-                  g.n[e] += w * nq[e];
-                }
-                g.mu += w * m * mu;
-                if (driven) {
-                  // Infinite mass, like a fixed solid, but moving.
-                  g.fixed_m += w * m;
-                  for (int e = 0; e < 3; ++e) g.fixed_p[e] += w * m * v[e];
-                  g.fixed_solid = g.fixed_solid == 0 || g.fixed_solid == tag ? tag : -1;
-                  g.solid = -1;  // never a moving body's node
-                } else {
-                  g.solid = g.solid == 0 || g.solid == tag ? tag : -1;
-                }
-                g.owner = g.owner == 0 || g.owner == tag ? tag : -1;
+                const float dist = phi + p.dx * nq.dot(r);
+                const float wm = w * m, outside = w * std::max(dist, 0.0f);
+                Row8& sums_a = *reinterpret_cast<Row8*>(&g.m);
+                Row8& sums_b = *reinterpret_cast<Row8*>(&g.fixed_m);
+                sums_a += (by_w ? Row8{} + w : Row8{} + wm) * row_a;
+                sums_b += (by_w ? Row8{} + outside : Row8{} + wm * mass_b) * row_b;
+                // The third row: the nearest sample's distance and normal,
+                // and the solid tags, as selects on one vector.
+                Row8& row = *reinterpret_cast<Row8*>(&g.phi);
+                const Mask8 old = (Mask8)row;
+                const Mask8 tags = keep ? old : ((old == 0) | (old == tag_v)) ? tag_v : Mask8{} - 1;
+                const Mask8 take = dist > row[0] ? first4 : Mask8{};
+                row = take ? (first1 ? Row8{} + dist : normal_c) : (Row8)tags;
               }
         }
       }

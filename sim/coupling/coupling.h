@@ -124,9 +124,20 @@ class GridCoupling {
 
   // Solid data on one node: sums of w m, w m v, w n, w m mu, and of w m
   // and w m v over solids of infinite mass; which moving solid it holds and
-  // which fixed one (solid + 1; 0 none yet; -1 several).
-  struct SolidNode {
-    float m, p[3], n[3], mu, fixed_m, fixed_p[3];
+  // which fixed one (solid + 1; 0 none yet; -1 several). Three rows of
+  // eight 4-byte lanes, 32-byte aligned: the scatter adds each row of sums
+  // in one vector (a row written by narrower stores would stall the next
+  // point's wide load of it).
+  struct alignas(32) SolidNode {
+    float m, p[3], n[3], mu;
+    float fixed_m, fixed_p[3];
+    // Outside the solid: the samples' normals weighted by how far outside
+    // their own planes the node lies, w_iq max(0, phi_q + n_q . (x_i - x_q)),
+    // summed. Beside a face only that face's samples count; around an edge
+    // or a corner both faces do, in proportion to the node's distance from
+    // each: the direction from the closest point, as the exact distance has.
+    float on[3];
+    float unused = 0.0f;
     // Signed distance to the solids' surface, extrapolated from each sample
     // along its normal (phi_q + n_q . (x_i - x_q)) and the largest taken: a
     // body's own distance inside it and across its nearest face, exact for
@@ -135,15 +146,12 @@ class GridCoupling {
     // The normal of the sample that gave phi: inside the body, the normal of
     // its nearest face (zero where no sample has a distance).
     float dn[3];
-    // Outside the solid: the samples' normals weighted by how far outside
-    // their own planes the node lies, w_iq max(0, phi_q + n_q . (x_i - x_q)),
-    // summed. Beside a face only that face's samples count; around an edge
-    // or a corner both faces do, in proportion to the node's distance from
-    // each: the direction from the closest point, as the exact distance has.
-    float on[3];
     int32_t solid, fixed_solid;
     int32_t owner;  // the one solid of any kind it holds (solid + 1; 0 none; -1 several)
+    int32_t unused_tag = 0;
   };
+  static_assert(sizeof(SolidNode) == 96, "three rows of eight lanes");
+
  private:
   // A node with both MPM and solid mass, during the collision.
   struct Shared {
