@@ -11,6 +11,7 @@
 #include <omp.h>
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include "sim/coupling/coupling.h"
 #include "sim/coupling/node_index.h"
@@ -69,29 +70,37 @@ void GridCoupling::gapsOfBlock(uint32_t pb, const std::vector<ParticleSet>& sets
   }
   if (!moving) return;
   // The planes (distance and its normal) of the 6^3 nodes the block's
-  // stencils reach, copied together: the particles then read them at fixed
-  // strides. A node without a distance (or without a slot) has -1e30 and
-  // a zero normal, so its plane is -1e30 at any particle.
+  // stencils reach, copied together as rows along z of eight lanes (six
+  // used): a particle then reads the three planes of a stencil row in one
+  // vector. A node without a distance (or without a slot) has -1e30 and a
+  // zero normal, so its plane is -1e30 at any particle.
   constexpr int kReach = kBlockSize + 2;
-  struct Plane {
-    float phi, n[3];
-  };
-  Plane plane[kReach][kReach][kReach];
+  alignas(32) float phi_row[kReach][kReach][8], nx_row[kReach][kReach][8],
+      ny_row[kReach][kReach][8], nz_row[kReach][kReach][8];
   bool has[kReach][kReach][kReach];
   bool any = false;
   for (int x = 0; x < kReach; ++x)
-    for (int y = 0; y < kReach; ++y)
-      for (int z = 0; z < kReach; ++z) {
-        const int32_t sl = slot[size_t(neighbourOf(Vec3i::Zero(), x, y, z))];
-        Plane& pl = plane[x][y][z];
-        pl = {-kFar, {0.0f, 0.0f, 0.0f}};
+    for (int y = 0; y < kReach; ++y) {
+      for (int z = 0; z < 8; ++z) {
+        const int32_t sl = z < kReach ? slot[size_t(neighbourOf(Vec3i::Zero(), x, y, z))] : -1;
+        float ph = -kFar, n0 = 0.0f, n1 = 0.0f, n2 = 0.0f;
         if (sl >= 0) {
           const SolidNode& g = nodes_[uint32_t(sl) * kBlockNodes + localNode(x, y, z)];
-          pl = {g.phi, {g.dn[0], g.dn[1], g.dn[2]}};
+          ph = g.phi;
+          n0 = g.dn[0];
+          n1 = g.dn[1];
+          n2 = g.dn[2];
         }
-        has[x][y][z] = pl.phi >= kNoDistance;
-        any = any || has[x][y][z];
+        phi_row[x][y][z] = ph;
+        nx_row[x][y][z] = n0;
+        ny_row[x][y][z] = n1;
+        nz_row[x][y][z] = n2;
+        if (z < kReach) {
+          has[x][y][z] = ph >= kNoDistance;
+          any = any || has[x][y][z];
+        }
       }
+    }
   if (!any) return;
   // Most particles here lie farther from the solids than any node's
   // distance reaches: a base cell is near when a node of its 3^3 stencil
@@ -107,39 +116,80 @@ void GridCoupling::gapsOfBlock(uint32_t pb, const std::vector<ParticleSet>& sets
         if (reach) near |= uint64_t(1) << localNode(x, y, z);
       }
   if (near == 0) return;
-  float least[kReach][kReach][kReach];
-  std::fill(&least[0][0][0], &least[0][0][0] + kReach * kReach * kReach, kFar);
+  // The least clearance of each base cell's particles; a node's is then
+  // the least of the cells whose stencils reach it (a min is exact in any
+  // order: the same as each particle's clearance taken at its 27 nodes).
+  float cell_least[kBlockSize][kBlockSize][kBlockSize];
+  std::fill(&cell_least[0][0][0], &cell_least[0][0][0] + kBlockNodes, kFar);
+  typedef float Row4 __attribute__((vector_size(16)));
+  typedef int32_t Mask4 __attribute__((vector_size(16)));
+  const Mask4 three = {-1, -1, -1, 0};  // a row's fourth lane is beyond the stencil
+  const Row4 far = {-kFar, -kFar, -kFar, -kFar};
   for (size_t s = 0; s < sets.size(); ++s) {
     const ParticleSet& set = sets[s];
     const float radius = 0.5f * std::cbrt(set.volume);
     for (uint32_t q = layout.offsets[s][pb]; q < layout.offsets[s][pb + 1]; ++q) {
-      const Stencil st = stencilAt(set.x[q], p.shifted_origin, p.inv_dx);
-      const int lx = st.base.x() & (kBlockSize - 1), ly = st.base.y() & (kBlockSize - 1),
-                lz = st.base.z() & (kBlockSize - 1);
-      if (!(near >> localNode(lx, ly, lz) & 1)) continue;
+      // The stencil's base node and the particle's place in it (its weights
+      // are not needed).
+      int l[3];
+      float fx[3];
+      for (int d = 0; d < 3; ++d) {
+        const float t = shiftedCoord(set.x[q][d], p.shifted_origin[d], p.inv_dx);
+        const float base = std::floor(t);
+        fx[d] = t - base + 0.5f;
+        l[d] = static_cast<int>(base) & (kBlockSize - 1);
+      }
+      if (!(near >> localNode(l[0], l[1], l[2]) & 1)) continue;
       // The particle's distance: the envelope of the planes its nodes'
       // distances came from (phi_i + n_i . (x_p - x_i), the largest),
       // exact beside a face, never more than the true distance.
-      float phi = -kFar;
+      const Row4 r2 = {fx[2], fx[2] - 1.0f, fx[2] - 2.0f, fx[2] - 3.0f};
+      Row4 best = far;
       for (int a = 0; a < 3; ++a)
-        for (int b = 0; b < 3; ++b)
-          for (int c = 0; c < 3; ++c) {
-            const Plane& pl = plane[lx + a][ly + b][lz + c];
-            const float r0 = st.fx[0] - float(a), r1 = st.fx[1] - float(b),
-                        r2 = st.fx[2] - float(c);
-            const float d = pl.phi + p.dx * (pl.n[0] * r0 + pl.n[1] * r1 + pl.n[2] * r2);
-            phi = d > phi ? d : phi;
-          }
+        for (int b = 0; b < 3; ++b) {
+          const float r0 = fx[0] - float(a), r1 = fx[1] - float(b);
+          Row4 ph, n0, n1, n2;
+          std::memcpy(&ph, &phi_row[l[0] + a][l[1] + b][l[2]], sizeof(Row4));
+          std::memcpy(&n0, &nx_row[l[0] + a][l[1] + b][l[2]], sizeof(Row4));
+          std::memcpy(&n1, &ny_row[l[0] + a][l[1] + b][l[2]], sizeof(Row4));
+          std::memcpy(&n2, &nz_row[l[0] + a][l[1] + b][l[2]], sizeof(Row4));
+          const Row4 d = ph + p.dx * (n0 * r0 + n1 * r1 + n2 * r2);
+          best = (three & (d > best)) ? d : best;
+        }
+      const float phi = std::max(std::max(best[0], best[1]), best[2]);
       if (!(phi > kNoDistance)) continue;
-      const float clearance = std::max(0.0f, phi - radius);
-      for (int a = 0; a < 3; ++a)
-        for (int b = 0; b < 3; ++b)
-          for (int c = 0; c < 3; ++c) {
-            float& l = least[lx + a][ly + b][lz + c];
-            l = std::min(l, clearance);
-          }
+      float& least = cell_least[l[0]][l[1]][l[2]];
+      least = std::min(least, std::max(0.0f, phi - radius));
     }
   }
+  // Each node the least of the cells up to two below it along each axis:
+  // along z, then y, then x.
+  float least_z[kBlockSize][kBlockSize][kReach], least_y[kBlockSize][kReach][kReach];
+  float least[kReach][kReach][kReach];
+  for (int x = 0; x < kBlockSize; ++x)
+    for (int y = 0; y < kBlockSize; ++y)
+      for (int z = 0; z < kReach; ++z) {
+        float m = kFar;
+        for (int c = std::max(0, z - 2); c <= std::min(kBlockSize - 1, z); ++c)
+          m = std::min(m, cell_least[x][y][c]);
+        least_z[x][y][z] = m;
+      }
+  for (int x = 0; x < kBlockSize; ++x)
+    for (int y = 0; y < kReach; ++y)
+      for (int z = 0; z < kReach; ++z) {
+        float m = kFar;
+        for (int c = std::max(0, y - 2); c <= std::min(kBlockSize - 1, y); ++c)
+          m = std::min(m, least_z[x][c][z]);
+        least_y[x][y][z] = m;
+      }
+  for (int x = 0; x < kReach; ++x)
+    for (int y = 0; y < kReach; ++y)
+      for (int z = 0; z < kReach; ++z) {
+        float m = kFar;
+        for (int c = std::max(0, x - 2); c <= std::min(kBlockSize - 1, x); ++c)
+          m = std::min(m, least_y[c][y][z]);
+        least[x][y][z] = m;
+      }
   // Into the moving solids' nodes: the least is the same in any order.
   for (int x = 0; x < kReach; ++x)
     for (int y = 0; y < kReach; ++y)
