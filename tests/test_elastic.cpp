@@ -3,6 +3,7 @@
 // the domain walls.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 
@@ -439,6 +440,85 @@ TEST(Elastic, SandStreamFallsOnJellyCube) {
   EXPECT_LT(highest, H + 0.06);
   // Nothing inside: no particle deeper than 1 mm (a twenty-fifth of a cell).
   EXPECT_LT(deepest, 1e-3);
+}
+
+}  // namespace
+}  // namespace triad
+
+namespace triad {
+namespace {
+
+// The push-out looks for particles inside an elastic solid only in the
+// particle blocks whose sphere meets the solid's box. Particles just inside
+// the faces at the solid's corner, in blocks whose centres lie 1.5 cells
+// outside each face (2.6 cells from the corner), must still be found and
+// moved onto the surface: a sphere cut short would leave them inside.
+TEST(Elastic, PushOutFindsParticlesInBlocksCentredOutsideTheSolid) {
+  const double dx = 0.02;
+  json j = test::baseScene("push_out_reach", {0.6, 0.6, 0.6}, dx);
+  j["gravity"] = {0, 0, 0};
+  j["materials"]["jelly"] = jelly(1e5);
+  j["materials"]["water"] = {{"model", "water"}, {"density", 1000}, {"bulk_modulus", 1e5}};
+  // Particle blocks hold positions [(4k + 0.5) dx, (4k + 4.5) dx) along
+  // each axis, centred at (4k + 2.5) dx: a face at 16 dx lies 1.5 dx past
+  // the centre of the block that holds 16.25 dx.
+  const double lo = 16 * dx, hi = 26 * dx;
+  j["objects"].push_back(elastic("cube", box({lo, lo, lo}, {hi, hi, hi})));
+  j["objects"].push_back({{"name", "water"},
+                          {"kind", "mpm"},
+                          {"material", "water"},
+                          {"shape", box({0.04, 0.04, 0.04}, {0.14, 0.14, 0.14})}});
+  World w = test::loadWorld(test::tempDir("push_out_reach"), j);
+  ASSERT_EQ(w.elastics.size(), 1u);
+  ASSERT_EQ(w.sets.size(), 1u);
+  const FemBody& cube = w.elastics[0].fem;
+  // A quarter cell inside each of the three faces at the corner, over the
+  // 3 x 3 cells nearest it, and at the corner itself.
+  ParticleSet& s = w.sets[0];
+  std::vector<size_t> placed;
+  auto place = [&](const Vec3d& p) {
+    const size_t i = placed.size();
+    ASSERT_LT(i, s.size());
+    s.x[i] = p.cast<float>();
+    s.v[i].setZero();
+    placed.push_back(i);
+  };
+  const double in = lo + 0.25 * dx;
+  for (int a = 0; a < 6; ++a)
+    for (int b = 0; b < 6; ++b) {
+      const double u = lo + (0.5 + 0.5 * a) * dx, v = lo + (0.5 + 0.5 * b) * dx;
+      place({in, u, v});
+      place({u, in, v});
+      place({u, v, in});
+    }
+  place({in, in, in});
+  // The cube rests undeformed: its depth is the box's.
+  auto depth = [&](const Vec3f& x) {
+    const Vec3d p = x.cast<double>();
+    return std::min((p - Vec3d::Constant(lo)).minCoeff(), (Vec3d::Constant(hi) - p).minCoeff());
+  };
+  for (size_t i : placed) ASSERT_NEAR(depth(s.x[i]), 0.25 * dx, 1e-6);
+
+  // The binning reorders the particles: the placed ones are known by id.
+  std::vector<uint32_t> ids;
+  for (size_t i : placed) ids.push_back(s.id[i]);
+  std::sort(ids.begin(), ids.end());
+  Solver solver(w);
+  solver.step(1e-4);
+  size_t inside = 0, found = 0;
+  double deepest = 0.0;
+  for (size_t i = 0; i < s.size(); ++i) {
+    if (!std::binary_search(ids.begin(), ids.end(), s.id[i])) continue;
+    ++found;
+    const double d = depth(s.x[i]);
+    if (d > 0.01 * dx) ++inside;
+    deepest = std::max(deepest, d);
+  }
+  ASSERT_EQ(found, placed.size());
+  // (The box is still the solid: its nodes moved by far less than the depths.)
+  for (size_t n = 0; n < cube.nodes(); ++n)
+    ASSERT_LT((cube.x[n] - cube.mesh.nodes[n]).norm(), 0.001 * dx);
+  EXPECT_EQ(inside, 0u) << "deepest " << deepest / dx << " dx";
 }
 
 }  // namespace
