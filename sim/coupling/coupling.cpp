@@ -212,82 +212,87 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
       if (blocks_[k].slot[d] != kNoSlot)
         slot_sources_[size_t(blocks_[k].slot[d])][size_t(colour)] = int32_t(k * 8 + size_t(d));
   }
-  // Each active point's stencil, once (a point reaches up to eight slots).
+  // Each active point's stencil, once (a point reaches up to eight slots),
+  // then each slot's sums: one parallel region (tens of nanoseconds a
+  // point; below some hundreds of points, waking the other threads costs
+  // more).
   stencils_.resize(n);
-  // (Tens of nanoseconds a point: below some ten thousand points, waking
-  // the other threads costs more.)
-  const bool parallel = stats_.active_points > 512;
-#pragma omp parallel for schedule(dynamic, 1) if (stats_.active_points > 16384)
-  for (int64_t k = 0; k < int64_t(blocks_.size()); ++k)
-    for (uint32_t o = blocks_[size_t(k)].first; o < blocks_[size_t(k)].last; o += 3)
-      for (uint32_t q = order_[o]; q < order_[o + 1]; ++q)
-        stencils_[q] = stencilAt(pts.x[q], p.shifted_origin, p.inv_dx);
-#pragma omp parallel for schedule(dynamic, 1) if (parallel)
-  for (int64_t s = 0; s < int64_t(slot_sources_.size()); ++s) {
-    SolidNode* slot_nodes = &nodes_[size_t(s) * kBlockNodes];
-    for (const int32_t source : slot_sources_[size_t(s)]) {
-      if (source < 0) continue;
-      const PointBlock& blk = blocks_[size_t(source) >> 3];
-      const int d = source & 7;
-      const int side[3] = {(d >> 2) & 1, (d >> 1) & 1, d & 1};  // which neighbour, per axis
-      for (uint32_t o = blk.first; o < blk.last; o += 3) {
-        const uint32_t solid = order_[o + 2];
-        const float mu = pts.friction[solid];
-        const bool driven = pts.kind[solid] == SolidKind::Driven;
-        const int32_t tag = int32_t(solid) + 1;
-        // Which lanes of the two rows of sums take w (normals, distances)
-        // rather than w m; the second row's mass lanes only for driven solids.
-        const Mask8 by_w = {0, 0, 0, 0, -1, -1, -1, 0};
-        // The third row's lanes: phi, dn, then the tags solid, fixed_solid
-        // and owner. A tag lane merges its solid's tag (the tag where it was
-        // 0 or the same, -1 for several; merging -1 gives -1), or is kept.
-        const Mask8 first1 = {-1, 0, 0, 0, 0, 0, 0, 0}, first4 = {-1, -1, -1, -1, 0, 0, 0, 0};
-        // Driven: infinite mass, like a fixed solid, but moving; never a
-        // moving body's node.
-        const Mask8 tag_v =
-            driven ? Mask8{0, 0, 0, 0, -1, tag, tag, 0} : Mask8{0, 0, 0, 0, tag, 0, tag, 0};
-        const Mask8 keep =
-            driven ? Mask8{-1, -1, -1, -1, 0, 0, 0, -1} : Mask8{-1, -1, -1, -1, 0, -1, 0, -1};
-        for (uint32_t q = order_[o]; q < order_[o + 1]; ++q) {
-          const float m = pts.point_mass[q];
-          const Vec3f& v = pts.v[q];
-          const Vec3f& nq = pts.n[q];
-          const float phi = pts.phi[q];
-          const Stencil& st = stencils_[q];
-          // What each row adds per unit of its weights: w m (1, v, -, mu)
-          // and w n; then w m (1, v) for solids of infinite mass and the
-          // outside weight times n.
-          const Row8 row_a = {1.0f, v[0], v[1], v[2], nq[0], nq[1], nq[2], mu};
-          const Row8 row_b = {1.0f, v[0], v[1], v[2], nq[0], nq[1], nq[2], 0.0f};
-          const float mass_b = driven ? 1.0f : 0.0f;
-          const Row8 normal_c = {0.0f, nq[0], nq[1], nq[2], 0.0f, 0.0f, 0.0f, 0.0f};
-          // The stencil's offsets along each axis that land in this slot.
-          int lo[3], hi[3], l[3];
-          for (int e = 0; e < 3; ++e) {
-            l[e] = st.base[e] & (kBlockSize - 1);
-            lo[e] = side[e] ? std::max(0, kBlockSize - l[e]) : 0;
-            hi[e] = side[e] ? 2 : std::min(2, kBlockSize - 1 - l[e]);
+#pragma omp parallel if (stats_.active_points > 512)
+  {
+#pragma omp for schedule(dynamic, 1)
+    for (int64_t k = 0; k < int64_t(blocks_.size()); ++k)
+      for (uint32_t o = blocks_[size_t(k)].first; o < blocks_[size_t(k)].last; o += 3)
+        for (uint32_t q = order_[o]; q < order_[o + 1]; ++q)
+          stencils_[q] = stencilAt(pts.x[q], p.shifted_origin, p.inv_dx);
+#pragma omp for schedule(dynamic, 1)
+    for (int64_t s = 0; s < int64_t(slot_sources_.size()); ++s) {
+      SolidNode* slot_nodes = &nodes_[size_t(s) * kBlockNodes];
+      for (const int32_t source : slot_sources_[size_t(s)]) {
+        if (source < 0) continue;
+        const PointBlock& blk = blocks_[size_t(source) >> 3];
+        const int d = source & 7;
+        const int side[3] = {(d >> 2) & 1, (d >> 1) & 1, d & 1};  // which neighbour, per axis
+        for (uint32_t o = blk.first; o < blk.last; o += 3) {
+          const uint32_t solid = order_[o + 2];
+          const float mu = pts.friction[solid];
+          const bool driven = pts.kind[solid] == SolidKind::Driven;
+          const int32_t tag = int32_t(solid) + 1;
+          // Which lanes of the two rows of sums take w (normals, distances)
+          // rather than w m; the second row's mass lanes only for driven solids.
+          const Mask8 by_w = {0, 0, 0, 0, -1, -1, -1, 0};
+          // The third row's lanes: phi, dn, then the tags solid, fixed_solid
+          // and owner. A tag lane merges its solid's tag (the tag where it was
+          // 0 or the same, -1 for several; merging -1 gives -1), or is kept.
+          const Mask8 first1 = {-1, 0, 0, 0, 0, 0, 0, 0}, first4 = {-1, -1, -1, -1, 0, 0, 0, 0};
+          // Driven: infinite mass, like a fixed solid, but moving; never a
+          // moving body's node.
+          const Mask8 tag_v =
+              driven ? Mask8{0, 0, 0, 0, -1, tag, tag, 0} : Mask8{0, 0, 0, 0, tag, 0, tag, 0};
+          const Mask8 keep =
+              driven ? Mask8{-1, -1, -1, -1, 0, 0, 0, -1} : Mask8{-1, -1, -1, -1, 0, -1, 0, -1};
+          for (uint32_t q = order_[o]; q < order_[o + 1]; ++q) {
+            const float m = pts.point_mass[q];
+            const Vec3f& v = pts.v[q];
+            const Vec3f& nq = pts.n[q];
+            const float phi = pts.phi[q];
+            const Stencil& st = stencils_[q];
+            // What each row adds per unit of its weights: w m (1, v, -, mu)
+            // and w n; then w m (1, v) for solids of infinite mass and the
+            // outside weight times n.
+            const Row8 row_a = {1.0f, v[0], v[1], v[2], nq[0], nq[1], nq[2], mu};
+            const Row8 row_b = {1.0f, v[0], v[1], v[2], nq[0], nq[1], nq[2], 0.0f};
+            const float mass_b = driven ? 1.0f : 0.0f;
+            const Row8 normal_c = {0.0f, nq[0], nq[1], nq[2], 0.0f, 0.0f, 0.0f, 0.0f};
+            // The stencil's offsets along each axis that land in this slot.
+            int lo[3], hi[3], l[3];
+            for (int e = 0; e < 3; ++e) {
+              l[e] = st.base[e] & (kBlockSize - 1);
+              lo[e] = side[e] ? std::max(0, kBlockSize - l[e]) : 0;
+              hi[e] = side[e] ? 2 : std::min(2, kBlockSize - 1 - l[e]);
+            }
+            for (int a = lo[0]; a <= hi[0]; ++a)
+              for (int b = lo[1]; b <= hi[1]; ++b)
+                for (int c = lo[2]; c <= hi[2]; ++c) {
+                  const float w = st.w[0][a] * st.w[1][b] * st.w[2][c];
+                  const Vec3f r(float(a) - st.fx[0], float(b) - st.fx[1], float(c) - st.fx[2]);
+                  SolidNode& g = slot_nodes[localNode(l[0] + a, l[1] + b, l[2] + c)];
+                  const float dist = phi + p.dx * nq.dot(r);
+                  const float wm = w * m, outside = w * std::max(dist, 0.0f);
+                  Row8& sums_a = *reinterpret_cast<Row8*>(&g.m);
+                  Row8& sums_b = *reinterpret_cast<Row8*>(&g.fixed_m);
+                  sums_a += (by_w ? Row8{} + w : Row8{} + wm) * row_a;
+                  sums_b += (by_w ? Row8{} + outside : Row8{} + wm * mass_b) * row_b;
+                  // The third row: the nearest sample's distance and normal,
+                  // and the solid tags, as selects on one vector.
+                  Row8& row = *reinterpret_cast<Row8*>(&g.phi);
+                  const Mask8 old = (Mask8)row;
+                  const Mask8 tags = keep                            ? old
+                                     : ((old == 0) | (old == tag_v)) ? tag_v
+                                                                     : Mask8{} - 1;
+                  const Mask8 take = dist > row[0] ? first4 : Mask8{};
+                  row = take ? (first1 ? Row8{} + dist : normal_c) : (Row8)tags;
+                }
           }
-          for (int a = lo[0]; a <= hi[0]; ++a)
-            for (int b = lo[1]; b <= hi[1]; ++b)
-              for (int c = lo[2]; c <= hi[2]; ++c) {
-                const float w = st.w[0][a] * st.w[1][b] * st.w[2][c];
-                const Vec3f r(float(a) - st.fx[0], float(b) - st.fx[1], float(c) - st.fx[2]);
-                SolidNode& g = slot_nodes[localNode(l[0] + a, l[1] + b, l[2] + c)];
-                const float dist = phi + p.dx * nq.dot(r);
-                const float wm = w * m, outside = w * std::max(dist, 0.0f);
-                Row8& sums_a = *reinterpret_cast<Row8*>(&g.m);
-                Row8& sums_b = *reinterpret_cast<Row8*>(&g.fixed_m);
-                sums_a += (by_w ? Row8{} + w : Row8{} + wm) * row_a;
-                sums_b += (by_w ? Row8{} + outside : Row8{} + wm * mass_b) * row_b;
-                // The third row: the nearest sample's distance and normal,
-                // and the solid tags, as selects on one vector.
-                Row8& row = *reinterpret_cast<Row8*>(&g.phi);
-                const Mask8 old = (Mask8)row;
-                const Mask8 tags = keep ? old : ((old == 0) | (old == tag_v)) ? tag_v : Mask8{} - 1;
-                const Mask8 take = dist > row[0] ? first4 : Mask8{};
-                row = take ? (first1 ? Row8{} + dist : normal_c) : (Row8)tags;
-              }
         }
       }
     }
