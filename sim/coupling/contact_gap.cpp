@@ -26,6 +26,15 @@ constexpr float kFar = 1e30f;
 // Nodes with no solid sample keep the empty node's distance.
 constexpr float kNoDistance = -1e29f;
 
+// Along one axis, the least of cell(c) over the base cells whose stencils
+// reach node i: cells i - 2 to i of the block's four.
+template <class Cell>
+float leastBelow(int i, Cell cell) {
+  float m = kFar;
+  for (int c = std::max(0, i - 2); c <= std::min(kBlockSize - 1, i); ++c) m = std::min(m, cell(c));
+  return m;
+}
+
 }  // namespace
 
 void GridCoupling::measureNearSolids(const std::vector<ParticleSet>& sets, const GridLayout& layout,
@@ -168,28 +177,16 @@ void GridCoupling::gapsOfBlock(uint32_t pb, const std::vector<ParticleSet>& sets
   float least[kReach][kReach][kReach];
   for (int x = 0; x < kBlockSize; ++x)
     for (int y = 0; y < kBlockSize; ++y)
-      for (int z = 0; z < kReach; ++z) {
-        float m = kFar;
-        for (int c = std::max(0, z - 2); c <= std::min(kBlockSize - 1, z); ++c)
-          m = std::min(m, cell_least[x][y][c]);
-        least_z[x][y][z] = m;
-      }
+      for (int z = 0; z < kReach; ++z)
+        least_z[x][y][z] = leastBelow(z, [&](int c) { return cell_least[x][y][c]; });
   for (int x = 0; x < kBlockSize; ++x)
     for (int y = 0; y < kReach; ++y)
-      for (int z = 0; z < kReach; ++z) {
-        float m = kFar;
-        for (int c = std::max(0, y - 2); c <= std::min(kBlockSize - 1, y); ++c)
-          m = std::min(m, least_z[x][c][z]);
-        least_y[x][y][z] = m;
-      }
+      for (int z = 0; z < kReach; ++z)
+        least_y[x][y][z] = leastBelow(y, [&](int c) { return least_z[x][c][z]; });
   for (int x = 0; x < kReach; ++x)
     for (int y = 0; y < kReach; ++y)
-      for (int z = 0; z < kReach; ++z) {
-        float m = kFar;
-        for (int c = std::max(0, x - 2); c <= std::min(kBlockSize - 1, x); ++c)
-          m = std::min(m, least_y[c][y][z]);
-        least[x][y][z] = m;
-      }
+      for (int z = 0; z < kReach; ++z)
+        least[x][y][z] = leastBelow(x, [&](int c) { return least_y[c][y][z]; });
   // Into the moving solids' nodes: the least is the same in any order.
   for (int x = 0; x < kReach; ++x)
     for (int y = 0; y < kReach; ++y)
