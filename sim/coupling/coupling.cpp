@@ -387,15 +387,20 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
   for (size_t s = 0; s < by_key.size(); ++s) by_key[s] = uint32_t(s);
   std::sort(by_key.begin(), by_key.end(),
             [&](uint32_t a, uint32_t b) { return slot_block_[a] < slot_block_[b]; });
+  // Each slot's nodes in contact, as a mask of its 64 (kBlockNodes) nodes.
+  static_assert(kBlockNodes == 64, "a mask per block");
   std::vector<uint32_t> first(size_t(slots) + 1, 0);
+  std::vector<uint64_t> contact_mask(size_t(slots), 0);
 #pragma omp parallel for schedule(static) if (slots > 64)
   for (int64_t j = 0; j < slots; ++j) {
     const size_t s = by_key[size_t(j)];
-    uint32_t count = 0;
+    uint64_t mask = 0;
     for (int k = 0; k < kBlockNodes; ++k)
-      count +=
-          inContact(nodes_[s * kBlockNodes + k], grid[size_t(slot_block_[s]) * kBlockNodes + k]);
-    first[size_t(j) + 1] = count;
+      mask |= uint64_t(inContact(nodes_[s * kBlockNodes + k],
+                                 grid[size_t(slot_block_[s]) * kBlockNodes + k]))
+              << k;
+    contact_mask[size_t(j)] = mask;
+    first[size_t(j) + 1] = uint32_t(__builtin_popcountll(mask));
   }
   for (int64_t j = 0; j < slots; ++j) first[size_t(j) + 1] += first[size_t(j)];
   shared_.resize(first.back());
@@ -404,11 +409,11 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
     const size_t s = by_key[size_t(j)];
     const size_t gb = slot_block_[s];
     uint32_t out = first[size_t(j)];
-    for (int k = 0; k < kBlockNodes; ++k) {
+    for (uint64_t mask = contact_mask[size_t(j)]; mask != 0; mask &= mask - 1) {
+      const int k = __builtin_ctzll(mask);
       const size_t i = size_t(s) * kBlockNodes + k;
       const SolidNode& sn = nodes_[i];
       const GridNode& g = grid[gb * kBlockNodes + k];
-      if (!inContact(sn, g)) continue;
       Shared& c = shared_[out++];
       c.P = c.T = c.dP = Vec3f::Zero();
       c.lambda = 0.0f;
