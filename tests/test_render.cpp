@@ -454,23 +454,25 @@ TEST(ContactSheet, HeldThumbnailsGiveTheSheetOfThePreviewsOnDisk) {
     writePng(previewImagePath(dir.string(), i), img);
     images.push_back(img);
   }
-  auto held = [](const Image& img) { return holdThumbnail(img); };
   ASSERT_EQ(writeContactSheet(dir.string()), 3);
   const Image from_disk = readPng(contactSheetPath(dir.string()));
   EXPECT_EQ(from_disk.rgb, contactSheet(images, {0, 1, 2}).rgb);
   // Frame 0 read back, frames 1 and 2 held.
-  ASSERT_EQ(writeContactSheet(dir.string(), {{1, held(images[1])}, {2, held(images[2])}}), 3);
+  ASSERT_EQ(writeContactSheet(dir.string(),
+                              {{1, holdThumbnail(images[1])}, {2, holdThumbnail(images[2])}}),
+            3);
   EXPECT_EQ(readPng(contactSheetPath(dir.string())).rgb, from_disk.rgb);
   // Every frame held.
-  ASSERT_EQ(writeContactSheet(dir.string(),
-                              {{0, held(images[0])}, {1, held(images[1])}, {2, held(images[2])}}),
+  ASSERT_EQ(writeContactSheet(dir.string(), {{0, holdThumbnail(images[0])},
+                                             {1, holdThumbnail(images[1])},
+                                             {2, holdThumbnail(images[2])}}),
             3);
   EXPECT_EQ(readPng(contactSheetPath(dir.string())).rgb, from_disk.rgb);
   // A held thumbnail is what the sheet shows (not the file read again)...
-  ASSERT_EQ(writeContactSheet(dir.string(), {{2, held(images[0])}}), 3);
+  ASSERT_EQ(writeContactSheet(dir.string(), {{2, holdThumbnail(images[0])}}), 3);
   EXPECT_NE(readPng(contactSheetPath(dir.string())).rgb, from_disk.rgb);
   // ...unless its size is not the sheet's: then the file is read.
-  ASSERT_EQ(writeContactSheet(dir.string(), {{2, held(pattern(150, 170))}}), 3);
+  ASSERT_EQ(writeContactSheet(dir.string(), {{2, holdThumbnail(pattern(150, 170))}}), 3);
   EXPECT_EQ(readPng(contactSheetPath(dir.string())).rgb, from_disk.rgb);
 }
 

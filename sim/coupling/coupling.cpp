@@ -54,21 +54,66 @@ size_t listBytes(const std::vector<std::vector<T>>& lists) {
   return b;
 }
 
-// Adds one sample's distance, carried along its normal to the node (dist =
-// phi_q + n_q . (x_i - x_q)), to the node's distance and normals.
-// As selects and an unconditional add rather than branches around each
-// update (which sample is nearest, and whether the node lies outside its
-// plane, change unpredictably from node to node): a tenth off the scatter.
-// Adding w * 0 * n where the node lies inside leaves each sum as it was
-// (the sums start at +0 and never become -0).
-inline void addSampleDistance(GridCoupling::SolidNode& g, float w, float dist, const Vec3f& nq) {
-  const bool nearer = dist > g.phi;
-  g.phi = nearer ? dist : g.phi;
-  const float outside = w * std::max(dist, 0.0f);
-  for (int e = 0; e < 3; ++e) {
-    g.dn[e] = nearer ? nq[e] : g.dn[e];
-    g.on[e] += outside * nq[e];
-  }
+// What one collision sample adds to the nodes of its stencil, per unit of
+// each node's weight, as the three rows of a SolidNode: w m (1, v, -, mu)
+// and w n; w m (1, v) for solids of infinite mass (fixed or driven) and the
+// outside weight times n; the sample's distance, normal and tags.
+struct SampleRows {
+  Row8 a, b, normal;
+  float m, mass_b, phi;
+  Vec3f n;
+  Mask8 tag, keep;
+};
+
+// A sample of mass m, velocity v, normal n and distance phi of solid
+// `solid` (of friction mu) of the given kind.
+inline SampleRows sampleRows(float m, const Vec3f& v, const Vec3f& n, float phi, float mu,
+                             SolidKind kind, uint32_t solid) {
+  SampleRows s;
+  s.a = Row8{1.0f, v[0], v[1], v[2], n[0], n[1], n[2], mu};
+  s.b = Row8{1.0f, v[0], v[1], v[2], n[0], n[1], n[2], 0.0f};
+  s.normal = Row8{0.0f, n[0], n[1], n[2], 0.0f, 0.0f, 0.0f, 0.0f};
+  s.m = m;
+  s.phi = phi;
+  s.n = n;
+  // The third row's lanes: phi, dn, then the tags solid, fixed_solid and
+  // owner. A tag lane merges its solid's tag (the tag where it was 0 or the
+  // same, -1 for several; merging -1 gives -1), or is kept. Solids of
+  // infinite mass (fixed ones, and driven ones, which move) are never a
+  // moving body's node.
+  const int32_t tag = int32_t(solid) + 1;
+  const bool infinite = kind != SolidKind::Moving;
+  s.mass_b = infinite ? 1.0f : 0.0f;
+  s.tag = infinite ? Mask8{0, 0, 0, 0, -1, tag, tag, 0} : Mask8{0, 0, 0, 0, tag, 0, tag, 0};
+  s.keep = infinite ? Mask8{-1, -1, -1, -1, 0, 0, 0, -1} : Mask8{-1, -1, -1, -1, 0, -1, 0, -1};
+  return s;
+}
+
+// Adds sample s at weight w to node g, r being the node less the sample in
+// cells. Each row is read and written whole, as one vector: a row written
+// by narrower stores would stall the next sample's wide load of it. The
+// distance, carried along the sample's normal to the node (phi_q + n_q .
+// (x_i - x_q)), is the node's where it is the largest; as selects rather
+// than branches (which sample is nearest, and whether the node lies outside
+// its plane, change unpredictably from node to node). Adding w * 0 * n
+// where the node lies inside leaves each sum as it was (the sums start at +0
+// and never become -0).
+inline void addSample(GridCoupling::SolidNode& g, const SampleRows& s, float w, const Vec3f& r,
+                      float dx) {
+  // Lanes that take w (normals, the outside weight) rather than w m.
+  const Mask8 by_w = {0, 0, 0, 0, -1, -1, -1, 0};
+  const Mask8 first1 = {-1, 0, 0, 0, 0, 0, 0, 0}, first4 = {-1, -1, -1, -1, 0, 0, 0, 0};
+  const float dist = s.phi + dx * s.n.dot(r);
+  const float wm = w * s.m, outside = w * std::max(dist, 0.0f);
+  Row8& sums_a = *reinterpret_cast<Row8*>(&g.m);
+  Row8& sums_b = *reinterpret_cast<Row8*>(&g.fixed_m);
+  sums_a += (by_w ? Row8{} + w : Row8{} + wm) * s.a;
+  sums_b += (by_w ? Row8{} + outside : Row8{} + wm * s.mass_b) * s.b;
+  Row8& row = *reinterpret_cast<Row8*>(&g.phi);
+  const Mask8 old = (Mask8)row;
+  const Mask8 tags = s.keep ? old : ((old == 0) | (old == s.tag)) ? s.tag : Mask8{} - 1;
+  const Mask8 take = dist > row[0] ? first4 : Mask8{};
+  row = take ? (first1 ? Row8{} + dist : s.normal) : (Row8)tags;
 }
 
 }  // namespace
@@ -234,35 +279,10 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
         const int side[3] = {(d >> 2) & 1, (d >> 1) & 1, d & 1};  // which neighbour, per axis
         for (uint32_t o = blk.first; o < blk.last; o += 3) {
           const uint32_t solid = order_[o + 2];
-          const float mu = pts.friction[solid];
-          const bool driven = pts.kind[solid] == SolidKind::Driven;
-          const int32_t tag = int32_t(solid) + 1;
-          // Which lanes of the two rows of sums take w (normals, distances)
-          // rather than w m; the second row's mass lanes only for driven solids.
-          const Mask8 by_w = {0, 0, 0, 0, -1, -1, -1, 0};
-          // The third row's lanes: phi, dn, then the tags solid, fixed_solid
-          // and owner. A tag lane merges its solid's tag (the tag where it was
-          // 0 or the same, -1 for several; merging -1 gives -1), or is kept.
-          const Mask8 first1 = {-1, 0, 0, 0, 0, 0, 0, 0}, first4 = {-1, -1, -1, -1, 0, 0, 0, 0};
-          // Driven: infinite mass, like a fixed solid, but moving; never a
-          // moving body's node.
-          const Mask8 tag_v =
-              driven ? Mask8{0, 0, 0, 0, -1, tag, tag, 0} : Mask8{0, 0, 0, 0, tag, 0, tag, 0};
-          const Mask8 keep =
-              driven ? Mask8{-1, -1, -1, -1, 0, 0, 0, -1} : Mask8{-1, -1, -1, -1, 0, -1, 0, -1};
           for (uint32_t q = order_[o]; q < order_[o + 1]; ++q) {
-            const float m = pts.point_mass[q];
-            const Vec3f& v = pts.v[q];
-            const Vec3f& nq = pts.n[q];
-            const float phi = pts.phi[q];
+            const SampleRows rows = sampleRows(pts.point_mass[q], pts.v[q], pts.n[q], pts.phi[q],
+                                               pts.friction[solid], pts.kind[solid], solid);
             const Stencil& st = stencils_[q];
-            // What each row adds per unit of its weights: w m (1, v, -, mu)
-            // and w n; then w m (1, v) for solids of infinite mass and the
-            // outside weight times n.
-            const Row8 row_a = {1.0f, v[0], v[1], v[2], nq[0], nq[1], nq[2], mu};
-            const Row8 row_b = {1.0f, v[0], v[1], v[2], nq[0], nq[1], nq[2], 0.0f};
-            const float mass_b = driven ? 1.0f : 0.0f;
-            const Row8 normal_c = {0.0f, nq[0], nq[1], nq[2], 0.0f, 0.0f, 0.0f, 0.0f};
             // The stencil's offsets along each axis that land in this slot.
             int lo[3], hi[3], l[3];
             for (int e = 0; e < 3; ++e) {
@@ -275,22 +295,7 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
                 for (int c = lo[2]; c <= hi[2]; ++c) {
                   const float w = st.w[0][a] * st.w[1][b] * st.w[2][c];
                   const Vec3f r(float(a) - st.fx[0], float(b) - st.fx[1], float(c) - st.fx[2]);
-                  SolidNode& g = slot_nodes[localNode(l[0] + a, l[1] + b, l[2] + c)];
-                  const float dist = phi + p.dx * nq.dot(r);
-                  const float wm = w * m, outside = w * std::max(dist, 0.0f);
-                  Row8& sums_a = *reinterpret_cast<Row8*>(&g.m);
-                  Row8& sums_b = *reinterpret_cast<Row8*>(&g.fixed_m);
-                  sums_a += (by_w ? Row8{} + w : Row8{} + wm) * row_a;
-                  sums_b += (by_w ? Row8{} + outside : Row8{} + wm * mass_b) * row_b;
-                  // The third row: the nearest sample's distance and normal,
-                  // and the solid tags, as selects on one vector.
-                  Row8& row = *reinterpret_cast<Row8*>(&g.phi);
-                  const Mask8 old = (Mask8)row;
-                  const Mask8 tags = keep                            ? old
-                                     : ((old == 0) | (old == tag_v)) ? tag_v
-                                                                     : Mask8{} - 1;
-                  const Mask8 take = dist > row[0] ? first4 : Mask8{};
-                  row = take ? (first1 ? Row8{} + dist : normal_c) : (Row8)tags;
+                  addSample(slot_nodes[localNode(l[0] + a, l[1] + b, l[2] + c)], rows, w, r, p.dx);
                 }
           }
         }
@@ -308,8 +313,10 @@ void GridCoupling::buildFixed(const SolidPoints& pts, const TransferParams& p) {
   for (size_t s = 0; s < pts.solids(); ++s) {
     if (pts.kind[s] != SolidKind::Static) continue;
     const size_t e = s + 1 < pts.begin.size() ? pts.begin[s + 1] : pts.size();
-    const float m = pts.mass[s], mu = pts.friction[s];
     for (size_t q = pts.begin[s]; q < e; ++q) {
+      // At rest: no momentum.
+      const SampleRows rows = sampleRows(pts.mass[s], Vec3f::Zero(), pts.n[q], pts.phi[q],
+                                         pts.friction[s], SolidKind::Static, uint32_t(s));
       const Stencil st = stencilAt(pts.x[q], p.shifted_origin, p.inv_dx);
       for (int a = 0; a < 3; ++a)
         for (int b = 0; b < 3; ++b)
@@ -319,18 +326,9 @@ void GridCoupling::buildFixed(const SolidPoints& pts, const TransferParams& p) {
                 packBlock(Vec3i(blockOf(node.x()), blockOf(node.y()), blockOf(node.z())));
             std::vector<SolidNode>& blk = blocks[key];
             if (blk.empty()) blk.assign(kBlockNodes, kEmptyNode);
-            SolidNode& g = blk[localNode(node.x(), node.y(), node.z())];
-            const float w = st.w[0][a] * st.w[1][b] * st.w[2][c];
-            g.m += w * m;
             const Vec3f r(float(a) - st.fx[0], float(b) - st.fx[1], float(c) - st.fx[2]);
-            addSampleDistance(g, w, pts.phi[q] + p.dx * pts.n[q].dot(r), pts.n[q]);
-            for (int d = 0; d < 3; ++d) g.n[d] += w * pts.n[q][d];
-            g.mu += w * m * mu;
-            g.fixed_m += w * m;
-            g.solid = -1;  // several or none moving: never a body's node
-            const int32_t tag = int32_t(s) + 1;
-            g.fixed_solid = g.fixed_solid == 0 || g.fixed_solid == tag ? tag : -1;
-            g.owner = g.owner == 0 || g.owner == tag ? tag : -1;
+            addSample(blk[localNode(node.x(), node.y(), node.z())], rows,
+                      st.w[0][a] * st.w[1][b] * st.w[2][c], r, p.dx);
           }
     }
   }
