@@ -55,12 +55,15 @@ size_t listBytes(const std::vector<std::vector<T>>& lists) {
 }
 
 // What one collision sample adds to the nodes of its stencil, per unit of
-// each node's weight, as the three rows of a SolidNode: w m (1, v, -, mu)
-// and w n; w m (1, v) for solids of infinite mass (fixed or driven) and the
-// outside weight times n; the sample's distance, normal and tags.
+// each node's weight w, as the three rows of a SolidNode: the first row
+// gains w (m, m v, n, m mu); the second w (m, m v, 0) for solids of
+// infinite mass (fixed or driven), 0 for others, and w max(0, distance)
+// (0, n, 0); the third takes the sample's distance, normal and tags. The
+// constant rows are made once per sample, so that a node costs a
+// multiply-add per row.
 struct SampleRows {
-  Row8 a, b, normal;
-  float m, mass_b, phi;
+  Row8 a, b, nb, normal;
+  float phi;
   Vec3f n;
   Mask8 tag, keep;
 };
@@ -70,20 +73,20 @@ struct SampleRows {
 inline SampleRows sampleRows(float m, const Vec3f& v, const Vec3f& n, float phi, float mu,
                              SolidKind kind, uint32_t solid) {
   SampleRows s;
-  s.a = Row8{1.0f, v[0], v[1], v[2], n[0], n[1], n[2], mu};
-  s.b = Row8{1.0f, v[0], v[1], v[2], n[0], n[1], n[2], 0.0f};
+  // Solids of infinite mass (fixed ones, and driven ones, which move) are
+  // never a moving body's node.
+  const bool infinite = kind != SolidKind::Moving;
+  const float mb = infinite ? m : 0.0f;
+  s.a = Row8{m, m * v[0], m * v[1], m * v[2], n[0], n[1], n[2], m * mu};
+  s.b = Row8{mb, mb * v[0], mb * v[1], mb * v[2], 0.0f, 0.0f, 0.0f, 0.0f};
+  s.nb = Row8{0.0f, 0.0f, 0.0f, 0.0f, n[0], n[1], n[2], 0.0f};
   s.normal = Row8{0.0f, n[0], n[1], n[2], 0.0f, 0.0f, 0.0f, 0.0f};
-  s.m = m;
   s.phi = phi;
   s.n = n;
   // The third row's lanes: phi, dn, then the tags solid, fixed_solid and
   // owner. A tag lane merges its solid's tag (the tag where it was 0 or the
-  // same, -1 for several; merging -1 gives -1), or is kept. Solids of
-  // infinite mass (fixed ones, and driven ones, which move) are never a
-  // moving body's node.
+  // same, -1 for several; merging -1 gives -1), or is kept.
   const int32_t tag = int32_t(solid) + 1;
-  const bool infinite = kind != SolidKind::Moving;
-  s.mass_b = infinite ? 1.0f : 0.0f;
   s.tag = infinite ? Mask8{0, 0, 0, 0, -1, tag, tag, 0} : Mask8{0, 0, 0, 0, tag, 0, tag, 0};
   s.keep = infinite ? Mask8{-1, -1, -1, -1, 0, 0, 0, -1} : Mask8{-1, -1, -1, -1, 0, -1, 0, -1};
   return s;
@@ -100,20 +103,37 @@ inline SampleRows sampleRows(float m, const Vec3f& v, const Vec3f& n, float phi,
 // and never become -0).
 inline void addSample(GridCoupling::SolidNode& g, const SampleRows& s, float w, const Vec3f& r,
                       float dx) {
-  // Lanes that take w (normals, the outside weight) rather than w m.
-  const Mask8 by_w = {0, 0, 0, 0, -1, -1, -1, 0};
   const Mask8 first1 = {-1, 0, 0, 0, 0, 0, 0, 0}, first4 = {-1, -1, -1, -1, 0, 0, 0, 0};
   const float dist = s.phi + dx * s.n.dot(r);
-  const float wm = w * s.m, outside = w * std::max(dist, 0.0f);
   Row8& sums_a = *reinterpret_cast<Row8*>(&g.m);
   Row8& sums_b = *reinterpret_cast<Row8*>(&g.fixed_m);
-  sums_a += (by_w ? Row8{} + w : Row8{} + wm) * s.a;
-  sums_b += (by_w ? Row8{} + outside : Row8{} + wm * s.mass_b) * s.b;
+  sums_a += w * s.a;
+  sums_b += w * s.b + (w * std::max(dist, 0.0f)) * s.nb;
   Row8& row = *reinterpret_cast<Row8*>(&g.phi);
   const Mask8 old = (Mask8)row;
   const Mask8 tags = s.keep ? old : ((old == 0) | (old == s.tag)) ? s.tag : Mask8{} - 1;
   const Mask8 take = dist > row[0] ? first4 : Mask8{};
   row = take ? (first1 ? Row8{} + dist : s.normal) : (Row8)tags;
+}
+
+// Adds a halo's node h, the sums of some samples from the empty node, to
+// node g: what adding those samples to g one by one gives, up to the sums'
+// rounding. The largest distance is taken only where strictly larger, so
+// the first of equal distances wins, as sample by sample; a tag lane joins
+// (0 none, a solid, -1 several) the same way.
+inline void addHaloNode(GridCoupling::SolidNode& g, const GridCoupling::SolidNode& h) {
+  const Mask8 first4 = {-1, -1, -1, -1, 0, 0, 0, 0}, keep = {-1, -1, -1, -1, 0, 0, 0, -1};
+  Row8& sums_a = *reinterpret_cast<Row8*>(&g.m);
+  Row8& sums_b = *reinterpret_cast<Row8*>(&g.fixed_m);
+  sums_a += *reinterpret_cast<const Row8*>(&h.m);
+  sums_b += *reinterpret_cast<const Row8*>(&h.fixed_m);
+  Row8& row = *reinterpret_cast<Row8*>(&g.phi);
+  const Row8 hrow = *reinterpret_cast<const Row8*>(&h.phi);
+  const Mask8 old = (Mask8)row, add = (Mask8)hrow;
+  const Mask8 joined = ((old == 0) | (old == add)) ? add : Mask8{} - 1;
+  const Mask8 tags = (keep | (add == 0)) ? old : joined;
+  const Mask8 take = hrow[0] > row[0] ? first4 : Mask8{};
+  row = take ? hrow : (Row8)tags;
 }
 
 }  // namespace
@@ -223,7 +243,7 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
 
   // Fixed solids: their node sums, for the grid blocks that exist now
   // (both key lists are sorted: one merge).
-  std::vector<std::pair<int32_t, size_t>> fixed_copy;  // slot, index into fixed_keys_
+  std::vector<std::pair<int32_t, int32_t>> fixed_copy;  // slot, index into fixed_keys_
   for (size_t gb = 0, f = 0; gb < layout.grid_keys.size() && f < fixed_keys_.size();) {
     if (layout.grid_keys[gb] < fixed_keys_[f]) {
       ++gb;
@@ -235,14 +255,16 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
         slot_block_.push_back(uint32_t(gb));
         slot_moving_.push_back(0);  // fixed solids alone
       }
-      fixed_copy.emplace_back(block_slot_[gb], f);
+      fixed_copy.emplace_back(block_slot_[gb], int32_t(f));
       ++gb;
       ++f;
     }
   }
-  nodes_.assign(slot_block_.size() * kBlockNodes, kEmptyNode);
-  for (const auto& [slot, f] : fixed_copy)
-    std::copy_n(&fixed_nodes_[f * kBlockNodes], kBlockNodes, &nodes_[size_t(slot) * kBlockNodes]);
+  // Each slot starts from its fixed solids' sums (copied in the parallel
+  // pass below, by the thread that then adds to it), or empty.
+  nodes_.resize(slot_block_.size() * kBlockNodes);
+  slot_fixed_.assign(slot_block_.size(), -1);
+  for (const auto& [slot, f] : fixed_copy) slot_fixed_[size_t(slot)] = f;
   // Each slot block gathers what the base blocks that reach it scatter.
   // The eight base blocks that can reach a slot (slot - {0,1}^3) have the
   // eight colours (parities): taken in colour order, every node's sum is
@@ -257,48 +279,74 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
       if (blocks_[k].slot[d] != kNoSlot)
         slot_sources_[size_t(blocks_[k].slot[d])][size_t(colour)] = int32_t(k * 8 + size_t(d));
   }
-  // Each active point's stencil, once (a point reaches up to eight slots),
-  // then each slot's sums: one parallel region (tens of nanoseconds a
-  // point; below some hundreds of points, waking the other threads costs
-  // more).
+  // Each base block's points, once each, into a 6x6x6 halo of node records
+  // (the block and the first two layers of its + neighbours); then each
+  // slot takes its nodes from the halos of the base blocks that reach it,
+  // in colour order. A point's 27 nodes lie at fixed strides in its halo,
+  // where visiting it once per slot it reaches (3.4 on average) recomputed
+  // its rows and clipped its stencil each time. One parallel region (below
+  // some hundreds of points, waking the other threads costs more).
   stencils_.resize(n);
+  halos_.resize(blocks_.size() * kHaloNodes);
+  // The fullest blocks first: a solid's blocks hold from a few points to
+  // hundreds, and a thread left with a full one at the end waits alone.
+  by_size_.resize(blocks_.size());
+  for (size_t k = 0; k < blocks_.size(); ++k) {
+    uint32_t count = 0;
+    for (uint32_t o = blocks_[k].first; o < blocks_[k].last; o += 3)
+      count += order_[o + 1] - order_[o];
+    by_size_[k] = (uint64_t(~count) << 32) | k;
+  }
+  std::sort(by_size_.begin(), by_size_.end());
 #pragma omp parallel if (stats_.active_points > 512)
   {
 #pragma omp for schedule(dynamic, 1)
-    for (int64_t k = 0; k < int64_t(blocks_.size()); ++k)
-      for (uint32_t o = blocks_[size_t(k)].first; o < blocks_[size_t(k)].last; o += 3)
-        for (uint32_t q = order_[o]; q < order_[o + 1]; ++q)
-          stencils_[q] = stencilAt(pts.x[q], p.shifted_origin, p.inv_dx);
+    for (int64_t j = 0; j < int64_t(blocks_.size()); ++j) {
+      const size_t k = size_t(by_size_[size_t(j)] & 0xffffffffu);
+      SolidNode* halo = &halos_[k * kHaloNodes];
+      std::fill_n(halo, kHaloNodes, kEmptyNode);
+      for (uint32_t o = blocks_[k].first; o < blocks_[k].last; o += 3) {
+        const uint32_t solid = order_[o + 2];
+        for (uint32_t q = order_[o]; q < order_[o + 1]; ++q) {
+          const Stencil st = stencilAt(pts.x[q], p.shifted_origin, p.inv_dx);
+          stencils_[q] = st;
+          const SampleRows rows = sampleRows(pts.point_mass[q], pts.v[q], pts.n[q], pts.phi[q],
+                                             pts.friction[solid], pts.kind[solid], solid);
+          SolidNode* base =
+              halo +
+              ((st.base[0] & (kBlockSize - 1)) * kHalo + (st.base[1] & (kBlockSize - 1))) * kHalo +
+              (st.base[2] & (kBlockSize - 1));
+          for (int a = 0; a < 3; ++a)
+            for (int b = 0; b < 3; ++b)
+              for (int c = 0; c < 3; ++c) {
+                const float w = st.w[0][a] * st.w[1][b] * st.w[2][c];
+                const Vec3f r(float(a) - st.fx[0], float(b) - st.fx[1], float(c) - st.fx[2]);
+                addSample(base[(a * kHalo + b) * kHalo + c], rows, w, r, p.dx);
+              }
+        }
+      }
+    }
 #pragma omp for schedule(dynamic, 1)
     for (int64_t s = 0; s < int64_t(slot_sources_.size()); ++s) {
       SolidNode* slot_nodes = &nodes_[size_t(s) * kBlockNodes];
+      if (slot_fixed_[size_t(s)] >= 0)
+        std::copy_n(&fixed_nodes_[size_t(slot_fixed_[size_t(s)]) * kBlockNodes], kBlockNodes,
+                    slot_nodes);
+      else
+        std::fill_n(slot_nodes, kBlockNodes, kEmptyNode);
       for (const int32_t source : slot_sources_[size_t(s)]) {
         if (source < 0) continue;
-        const PointBlock& blk = blocks_[size_t(source) >> 3];
+        const SolidNode* halo = &halos_[size_t(source >> 3) * kHaloNodes];
         const int d = source & 7;
-        const int side[3] = {(d >> 2) & 1, (d >> 1) & 1, d & 1};  // which neighbour, per axis
-        for (uint32_t o = blk.first; o < blk.last; o += 3) {
-          const uint32_t solid = order_[o + 2];
-          for (uint32_t q = order_[o]; q < order_[o + 1]; ++q) {
-            const SampleRows rows = sampleRows(pts.point_mass[q], pts.v[q], pts.n[q], pts.phi[q],
-                                               pts.friction[solid], pts.kind[solid], solid);
-            const Stencil& st = stencils_[q];
-            // The stencil's offsets along each axis that land in this slot.
-            int lo[3], hi[3], l[3];
-            for (int e = 0; e < 3; ++e) {
-              l[e] = st.base[e] & (kBlockSize - 1);
-              lo[e] = side[e] ? std::max(0, kBlockSize - l[e]) : 0;
-              hi[e] = side[e] ? 2 : std::min(2, kBlockSize - 1 - l[e]);
-            }
-            for (int a = lo[0]; a <= hi[0]; ++a)
-              for (int b = lo[1]; b <= hi[1]; ++b)
-                for (int c = lo[2]; c <= hi[2]; ++c) {
-                  const float w = st.w[0][a] * st.w[1][b] * st.w[2][c];
-                  const Vec3f r(float(a) - st.fx[0], float(b) - st.fx[1], float(c) - st.fx[2]);
-                  addSample(slot_nodes[localNode(l[0] + a, l[1] + b, l[2] + c)], rows, w, r, p.dx);
-                }
-          }
-        }
+        // A + neighbour's first two layers lie at halo offset 4 on that axis.
+        const int side[3] = {(d >> 2) & 1, (d >> 1) & 1, d & 1};
+        for (int x = 0; x < (side[0] ? 2 : kBlockSize); ++x)
+          for (int y = 0; y < (side[1] ? 2 : kBlockSize); ++y)
+            for (int z = 0; z < (side[2] ? 2 : kBlockSize); ++z)
+              addHaloNode(
+                  slot_nodes[localNode(x, y, z)],
+                  halo[((side[0] * kBlockSize + x) * kHalo + side[1] * kBlockSize + y) * kHalo +
+                       side[2] * kBlockSize + z]);
       }
     }
   }
@@ -733,7 +781,8 @@ size_t GridCoupling::bytes() const {
          point_key_.capacity() * 8 + front_.capacity() * sizeof(FrontSums) +
          (front_dv_.capacity() + rest_dv_.capacity()) * sizeof(Vec3f) + split_.capacity() * 8 +
          listBytes(front_lists_) + slot_sources_.capacity() * sizeof(slot_sources_[0]) +
-         stencils_.capacity() * sizeof(Stencil) + listBytes(gap_threads_);
+         stencils_.capacity() * sizeof(Stencil) + halos_.capacity() * sizeof(SolidNode) +
+         slot_fixed_.capacity() * 4 + by_size_.capacity() * 8 + listBytes(gap_threads_);
 }
 
 }  // namespace triad
