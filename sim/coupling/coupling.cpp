@@ -288,6 +288,7 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
   // some hundreds of points, waking the other threads costs more).
   stencils_.resize(n);
   halos_.resize(blocks_.size() * kHaloNodes);
+  halo_box_.resize(blocks_.size());
   // The fullest blocks first: a solid's blocks hold from a few points to
   // hundreds, and a thread left with a full one at the end waits alone.
   by_size_.resize(blocks_.size());
@@ -303,13 +304,30 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
 #pragma omp for schedule(dynamic, 1)
     for (int64_t j = 0; j < int64_t(blocks_.size()); ++j) {
       const size_t k = size_t(by_size_[size_t(j)] & 0xffffffffu);
-      SolidNode* halo = &halos_[k * kHaloNodes];
-      std::fill_n(halo, kHaloNodes, kEmptyNode);
-      for (uint32_t o = blocks_[k].first; o < blocks_[k].last; o += 3) {
-        const uint32_t solid = order_[o + 2];
+      // The stencils first, and the box of halo nodes they reach: only that
+      // box is emptied here and read by the slots (a block of a solid's
+      // surface reaches a slab of its halo, and emptying all of it cost
+      // as much as its points' sums).
+      std::array<int8_t, 6> box = {kHalo, kHalo, kHalo, 0, 0, 0};
+      for (uint32_t o = blocks_[k].first; o < blocks_[k].last; o += 3)
         for (uint32_t q = order_[o]; q < order_[o + 1]; ++q) {
           const Stencil st = stencilAt(pts.x[q], p.shifted_origin, p.inv_dx);
           stencils_[q] = st;
+          for (int e = 0; e < 3; ++e) {
+            const int l = st.base[e] & (kBlockSize - 1);
+            box[size_t(e)] = int8_t(std::min<int>(box[size_t(e)], l));
+            box[size_t(e) + 3] = int8_t(std::max<int>(box[size_t(e) + 3], l + 2));
+          }
+        }
+      halo_box_[k] = box;
+      SolidNode* halo = &halos_[k * kHaloNodes];
+      for (int x = box[0]; x <= box[3]; ++x)
+        for (int y = box[1]; y <= box[4]; ++y)
+          std::fill_n(&halo[(x * kHalo + y) * kHalo + box[2]], box[5] - box[2] + 1, kEmptyNode);
+      for (uint32_t o = blocks_[k].first; o < blocks_[k].last; o += 3) {
+        const uint32_t solid = order_[o + 2];
+        for (uint32_t q = order_[o]; q < order_[o + 1]; ++q) {
+          const Stencil& st = stencils_[q];
           const SampleRows rows = sampleRows(pts.point_mass[q], pts.v[q], pts.n[q], pts.phi[q],
                                              pts.friction[solid], pts.kind[solid], solid);
           SolidNode* base =
@@ -337,12 +355,19 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
       for (const int32_t source : slot_sources_[size_t(s)]) {
         if (source < 0) continue;
         const SolidNode* halo = &halos_[size_t(source >> 3) * kHaloNodes];
+        const std::array<int8_t, 6>& box = halo_box_[size_t(source >> 3)];
         const int d = source & 7;
-        // A + neighbour's first two layers lie at halo offset 4 on that axis.
+        // A + neighbour's first two layers lie at halo offset 4 on that
+        // axis; the slot's nodes that the block's box holds.
         const int side[3] = {(d >> 2) & 1, (d >> 1) & 1, d & 1};
-        for (int x = 0; x < (side[0] ? 2 : kBlockSize); ++x)
-          for (int y = 0; y < (side[1] ? 2 : kBlockSize); ++y)
-            for (int z = 0; z < (side[2] ? 2 : kBlockSize); ++z)
+        int lo[3], hi[3];
+        for (int e = 0; e < 3; ++e) {
+          lo[e] = std::max(0, box[size_t(e)] - side[e] * kBlockSize);
+          hi[e] = std::min(side[e] ? 1 : kBlockSize - 1, box[size_t(e) + 3] - side[e] * kBlockSize);
+        }
+        for (int x = lo[0]; x <= hi[0]; ++x)
+          for (int y = lo[1]; y <= hi[1]; ++y)
+            for (int z = lo[2]; z <= hi[2]; ++z)
               addHaloNode(
                   slot_nodes[localNode(x, y, z)],
                   halo[((side[0] * kBlockSize + x) * kHalo + side[1] * kBlockSize + y) * kHalo +
@@ -782,7 +807,8 @@ size_t GridCoupling::bytes() const {
          (front_dv_.capacity() + rest_dv_.capacity()) * sizeof(Vec3f) + split_.capacity() * 8 +
          listBytes(front_lists_) + slot_sources_.capacity() * sizeof(slot_sources_[0]) +
          stencils_.capacity() * sizeof(Stencil) + halos_.capacity() * sizeof(SolidNode) +
-         slot_fixed_.capacity() * 4 + by_size_.capacity() * 8 + listBytes(gap_threads_);
+         slot_fixed_.capacity() * 4 + by_size_.capacity() * 8 + halo_box_.capacity() * 6 +
+         listBytes(gap_threads_);
 }
 
 }  // namespace triad

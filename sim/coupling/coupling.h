@@ -190,6 +190,9 @@ class GridCoupling {
   std::vector<std::array<int32_t, 8>> slot_sources_;
   std::vector<Stencil> stencils_;      // per point (active ones only)
   std::vector<SolidNode> halos_;       // per base block: its points' sums, 6x6x6 nodes
+  // Per base block: the halo nodes its points reach, lo x, y, z and hi
+  // (inclusive) x, y, z.
+  std::vector<std::array<int8_t, 6>> halo_box_;
   std::vector<int32_t> slot_fixed_;    // per slot: its block in fixed_keys_, or -1
   std::vector<uint64_t> by_size_;      // base blocks, fullest first: ~points << 32 | index
   std::vector<uint64_t> point_key_;    // per point: base block key
