@@ -799,6 +799,12 @@ void GridCoupling::gatherEverywhere(SolidPoints& pts, const TransferParams& p) c
   }
 }
 
+const GridCoupling::SolidNode* GridCoupling::solidNode(size_t node) const {
+  const size_t block = node / kBlockNodes;
+  if (block >= block_slot_.size() || block_slot_[block] == kNoSlot) return nullptr;
+  return &nodes_[size_t(block_slot_[block]) * kBlockNodes + node % kBlockNodes];
+}
+
 size_t GridCoupling::bytes() const {
   return nodes_.capacity() * sizeof(SolidNode) + delta_.capacity() * sizeof(Vec3f) +
          pre_.capacity() * sizeof(Vec3f) + slot_block_.capacity() * 4 + block_slot_.capacity() * 4 +

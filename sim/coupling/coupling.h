@@ -151,6 +151,10 @@ class GridCoupling {
     int32_t unused_tag = 0;
   };
   static_assert(sizeof(SolidNode) == 96, "three rows of eight lanes");
+  // After scatter(): the solids' record of MPM grid node `node` (its block's
+  // index in the layout times 64 plus its place in the block), or nullptr
+  // where no solid reaches that block.
+  const SolidNode* solidNode(size_t node) const;
 
  private:
   // A node with both MPM and solid mass, during the collision.
