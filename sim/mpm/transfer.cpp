@@ -438,7 +438,8 @@ G2PStats gatherSet(ParticleSet& set, size_t s, const GridLayout& layout,
         // particle just stored: a wide load of C or x waited on its stores
         // (they cannot be forwarded to it), and with two threads that wait
         // was a third of the jelly's gather (8.3 -> 9.9 M particle-substeps/s)
-        // and a fifth of water's (G2P 0.90 -> 0.72 s of the dam break).
+        // and a fifth of water's (G2P 0.90 -> 0.72 s over the dam break's
+        // first 0.05 s, while its column is packed).
         const Mat3f C = c_scale * B;
         const Vec3f x = (set.x[i] + dt * v).cwiseMax(p.domain_lo).cwiseMin(p.domain_hi);
         if constexpr (kFlip) v = flip_ratio * (set.v[i] + dv) + (1.0f - flip_ratio) * v;
