@@ -92,6 +92,11 @@ inline SampleRows sampleRows(float m, const Vec3f& v, const Vec3f& n, float phi,
   return s;
 }
 
+// A tag lane's join: 0 none, a solid's tag, -1 several.
+inline Mask8 joinTags(Mask8 old, Mask8 add) {
+  return ((old == 0) | (old == add)) ? add : Mask8{} - 1;
+}
+
 // Adds sample s at weight w to node g, r being the node less the sample in
 // cells. Each row is read and written whole, as one vector: a row written
 // by narrower stores would stall the next sample's wide load of it. The
@@ -111,7 +116,7 @@ inline void addSample(GridCoupling::SolidNode& g, const SampleRows& s, float w, 
   sums_b += w * s.b + (w * std::max(dist, 0.0f)) * s.nb;
   Row8& row = *reinterpret_cast<Row8*>(&g.phi);
   const Mask8 old = (Mask8)row;
-  const Mask8 tags = s.keep ? old : ((old == 0) | (old == s.tag)) ? s.tag : Mask8{} - 1;
+  const Mask8 tags = s.keep ? old : joinTags(old, s.tag);
   const Mask8 take = dist > row[0] ? first4 : Mask8{};
   row = take ? (first1 ? Row8{} + dist : s.normal) : (Row8)tags;
 }
@@ -130,7 +135,8 @@ inline void addHaloNode(GridCoupling::SolidNode& g, const GridCoupling::SolidNod
   Row8& row = *reinterpret_cast<Row8*>(&g.phi);
   const Row8 hrow = *reinterpret_cast<const Row8*>(&h.phi);
   const Mask8 old = (Mask8)row, add = (Mask8)hrow;
-  const Mask8 joined = ((old == 0) | (old == add)) ? add : Mask8{} - 1;
+  // (Written as two statements: GCC 12 crashed on the one expression.)
+  const Mask8 joined = joinTags(old, add);
   const Mask8 tags = (keep | (add == 0)) ? old : joined;
   const Mask8 take = hrow[0] > row[0] ? first4 : Mask8{};
   row = take ? hrow : (Row8)tags;
@@ -203,7 +209,9 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
   // Base blocks whose stencils reach the MPM grid; their neighbours' slots.
   layout_keys_ = &layout.grid_keys;
   blocks_.clear();
+  by_size_.clear();
   slot_moving_.clear();
+  slot_fixed_.clear();
   block_slot_.assign(layout.gridBlocks(), kNoSlot);
   slot_block_.clear();
   order_.clear();
@@ -223,19 +231,23 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
         block_slot_[gb] = int32_t(slot_block_.size());
         slot_block_.push_back(uint32_t(gb));
         slot_moving_.push_back(1);  // these runs are of solids that move
+        slot_fixed_.push_back(-1);
       }
       blk.slot[d] = block_slot_[gb];
       any = true;
     }
     if (any) {
       // order_ holds run indices as (start, end, solid) triples.
+      uint32_t count = 0;
       for (size_t k = r; k < e; ++k) {
         order_.push_back(runs[k].start);
         order_.push_back(runs[k].end);
         order_.push_back(runs[k].solid);
-        stats_.active_points += runs[k].end - runs[k].start;
+        count += runs[k].end - runs[k].start;
       }
+      stats_.active_points += count;
       blk.last = uint32_t(order_.size());
+      by_size_.push_back((uint64_t(~count) << 32) | blocks_.size());
       blocks_.push_back(blk);
     }
     r = e;
@@ -243,7 +255,6 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
 
   // Fixed solids: their node sums, for the grid blocks that exist now
   // (both key lists are sorted: one merge).
-  std::vector<std::pair<int32_t, int32_t>> fixed_copy;  // slot, index into fixed_keys_
   for (size_t gb = 0, f = 0; gb < layout.grid_keys.size() && f < fixed_keys_.size();) {
     if (layout.grid_keys[gb] < fixed_keys_[f]) {
       ++gb;
@@ -254,8 +265,9 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
         block_slot_[gb] = int32_t(slot_block_.size());
         slot_block_.push_back(uint32_t(gb));
         slot_moving_.push_back(0);  // fixed solids alone
+        slot_fixed_.push_back(-1);
       }
-      fixed_copy.emplace_back(block_slot_[gb], int32_t(f));
+      slot_fixed_[size_t(block_slot_[gb])] = int32_t(f);
       ++gb;
       ++f;
     }
@@ -263,8 +275,6 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
   // Each slot starts from its fixed solids' sums (copied in the parallel
   // pass below, by the thread that then adds to it), or empty.
   nodes_.resize(slot_block_.size() * kBlockNodes);
-  slot_fixed_.assign(slot_block_.size(), -1);
-  for (const auto& [slot, f] : fixed_copy) slot_fixed_[size_t(slot)] = f;
   // Each slot block gathers what the base blocks that reach it scatter.
   // The eight base blocks that can reach a slot (slot - {0,1}^3) have the
   // eight colours (parities): taken in colour order, every node's sum is
@@ -291,13 +301,6 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
   halo_box_.resize(blocks_.size());
   // The fullest blocks first: a solid's blocks hold from a few points to
   // hundreds, and a thread left with a full one at the end waits alone.
-  by_size_.resize(blocks_.size());
-  for (size_t k = 0; k < blocks_.size(); ++k) {
-    uint32_t count = 0;
-    for (uint32_t o = blocks_[k].first; o < blocks_[k].last; o += 3)
-      count += order_[o + 1] - order_[o];
-    by_size_[k] = (uint64_t(~count) << 32) | k;
-  }
   std::sort(by_size_.begin(), by_size_.end());
 #pragma omp parallel if (stats_.active_points > 512)
   {
