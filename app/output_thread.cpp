@@ -76,6 +76,11 @@ void OutputThread::wait() {
   waitIdle(lock);
 }
 
+bool OutputThread::busy() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return busy_;
+}
+
 double OutputThread::busySeconds() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return busy_seconds_;

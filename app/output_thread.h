@@ -26,6 +26,8 @@ class OutputThread {
   void wait();
 
   bool overlapping() const { return overlap_; }
+  // Whether a job is being written now (never, without overlap).
+  bool busy() const;
   // Seconds the caller spent blocked in submit() and wait().
   double waitedSeconds() const { return waited_; }
   // Seconds the jobs ran.
