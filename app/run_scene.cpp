@@ -148,25 +148,21 @@ int runScene(const RunOptions& options_in) {
                  "triad: note: no room for a frame's copy (about %.3g MiB): each frame is written "
                  "before the next steps\n",
                  copy_bytes / (1024.0 * 1024.0));
-  OutputThread output(overlap);
-  rec.output_overlap = overlap;
   // The writer needs a core while it works. With a solver thread on every
   // core, one of them would share its core with the writer, and each of the
   // step's barriers would wait for that thread's next time slice: a draft
   // run's solve took 1.7 times as long. So while a frame is being written
   // the solver steps with one thread fewer (results do not depend on the
-  // thread count).
+  // thread count), and llvmpipe rasterises on the writer's thread alone
+  // (its own threads, one per core, took the solver's cores too: the
+  // default scene's run is 2-5% shorter without them) unless LP_NUM_THREADS
+  // says otherwise; it reads that when the context below is made.
   const int solver_threads = omp_get_max_threads();
   const bool yield_core = overlap && solver_threads > 1 && solver_threads >= omp_get_num_procs();
-  auto shareCores = [&]() {
-    if (yield_core) omp_set_num_threads(output.busy() ? solver_threads - 1 : solver_threads);
-  };
-  // For the same reason llvmpipe rasterises on the writer's thread alone
-  // (its own threads, one per core, would take the solver's cores; the
-  // preview scene's run is 2-5% shorter), unless LP_NUM_THREADS says otherwise.
   if (yield_core) setenv("LP_NUM_THREADS", "0", /*overwrite=*/0);
 
-  // The preview renderer keeps one OSMesa context for the whole run.
+  // The preview renderer keeps one OSMesa context for the whole run. Made
+  // before the writer, so that the writer's thread ends before it goes.
   std::unique_ptr<render::PreviewWriter> preview;
   if (scene.output.png && split.root()) {
     try {
@@ -176,6 +172,12 @@ int runScene(const RunOptions& options_in) {
       split.abort(kExitRunFailed);
     }
   }
+
+  OutputThread output(overlap);
+  rec.output_overlap = overlap;
+  auto shareCores = [&]() {
+    if (yield_core) omp_set_num_threads(output.busy() ? solver_threads - 1 : solver_threads);
+  };
 
   rec.scene_name = scene.name;
   rec.scene_path = scene.source_path;
