@@ -175,8 +175,13 @@ int runScene(const RunOptions& options_in) {
 
   OutputThread output(overlap);
   rec.output_overlap = overlap;
+  if (yield_core) rec.threads_while_writing = solver_threads - 1;
+  int team = solver_threads;  // the threads the next step runs on
+  uint64_t steps_while_writing = 0;
   auto shareCores = [&]() {
-    if (yield_core) omp_set_num_threads(output.busy() ? solver_threads - 1 : solver_threads);
+    if (!yield_core) return;
+    team = output.busy() ? solver_threads - 1 : solver_threads;
+    omp_set_num_threads(team);
   };
 
   rec.scene_name = scene.name;
@@ -280,6 +285,7 @@ int runScene(const RunOptions& options_in) {
     std::vector<std::pair<std::string, uint64_t>> emitted, removed;
     double time = 0.0;
     size_t particle_bytes = 0, grid_bytes = 0;
+    uint64_t steps_while_writing = 0;
   };
   auto simState = [&]() {
     SimState s;
@@ -298,6 +304,7 @@ int runScene(const RunOptions& options_in) {
       for (auto& [name, n] : s.removed) n = uint64_t(split.sum(double(n)));
     }
     s.time = world.time;
+    s.steps_while_writing = steps_while_writing;
     s.particle_bytes = world.particleBytes();
     s.grid_bytes = solver.bytes();
     return s;
@@ -325,6 +332,7 @@ int runScene(const RunOptions& options_in) {
     rec.dt_max = sim.steps.dt_max;
     rec.particle_steps = sim.steps.particle_steps;
     rec.sleeping_steps = sim.steps.sleeping_steps;
+    rec.steps_while_writing = sim.steps_while_writing;
     rec.wall_seconds = omp_get_wtime() - t_start;
     rec.peak_rss_bytes = peakResidentBytes();
     rec.particle_bytes = sim.particle_bytes;
@@ -417,6 +425,7 @@ int runScene(const RunOptions& options_in) {
       solver.resetLoads();
       shareCores();
       solver.advanceTo(t_frame, [&](double dt) {
+        if (team < solver_threads) ++steps_while_writing;
         shareCores();
         progress.step(frame, world.steps, world.time, dt);
         checkInterrupt();

@@ -28,6 +28,10 @@ void writeRunRecord(const std::string& path, const RunRecord& rec) {
   j["omp_wait_policy"] = rec.omp_wait_policy;
   if (!rec.omp_spin_count.empty()) j["omp_spin_count"] = rec.omp_spin_count;
   j["output_overlap"] = rec.output_overlap;
+  if (rec.threads_while_writing > 0) {
+    j["threads_while_writing"] = rec.threads_while_writing;
+    j["steps_while_writing"] = rec.steps_while_writing;
+  }
   if (rec.mpi_ranks > 0)
     j["mpi"] = {{"ranks", rec.mpi_ranks},
                 {"particles_per_frame", rec.mpi_particles},

@@ -16,6 +16,11 @@ struct RunRecord {
   std::string omp_wait_policy;  // as the OpenMP runtime was started with
   std::string omp_spin_count;   // GOMP_SPINCOUNT as started with; empty: the runtime's own
   bool output_overlap = false;  // frames written on their own thread while the next steps
+  // With overlap and a solver thread on every core: the solver's threads
+  // while a frame is being written (0: it never gives one up), and the
+  // steps it took so.
+  int threads_while_writing = 0;
+  uint64_t steps_while_writing = 0;
   size_t particles = 0;  // now (sources and sinks change it)
   std::vector<std::pair<std::string, size_t>> object_particles;  // in scene order, at t = 0
   // Particles made by each source and removed by each sink so far, scene order.

@@ -2,9 +2,11 @@
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <fstream>
 #include <initializer_list>
 #include <sstream>
+#include <thread>
 
 #include "cli_fixture.h"
 #include "scene_fixture.h"
@@ -70,6 +72,41 @@ TEST(Cli, SameBytesForOneAndTwoThreads) {
   // The scene did move: frame 3 differs from frame 0.
   EXPECT_NE(slurp(dir / "t1/particles/particles.0000.ply"),
             slurp(dir / "t1/particles/particles.0003.ply"));
+}
+
+// With a solver thread on every core, the solver gives the writer one of
+// them while it writes a frame (run.json counts those steps), and takes it
+// back after: the steps run on changing thread counts, and every file is
+// still the bytes of a run on one thread.
+TEST(Cli, TheSolverGivesTheWriterACoreAndWritesTheSameBytes) {
+  const fs::path dir = test::tempDir("cli_writer_core");
+  json j = mixedScene();
+  j["output"] = {{"vdb", true}, {"png", true}};
+  j["render"] = {{"resolution", {320, 180}}};
+  const std::string scene = test::writeScene(dir, j);
+  const int cores = int(std::max(2u, std::thread::hardware_concurrency()));
+  const Result one =
+      triad(dir, "run " + scene + " --threads 1 --quiet --out " + (dir / "t1").string());
+  ASSERT_EQ(one.status, 0) << one.err;
+  const Result all = triad(dir, "run " + scene + " --threads " + std::to_string(cores) +
+                                    " --quiet --out " + (dir / "all").string());
+  ASSERT_EQ(all.status, 0) << all.err;
+  const json rec = json::parse(slurp(dir / "all/run.json"));
+  ASSERT_TRUE(rec.contains("threads_while_writing")) << "no core given to the writer";
+  EXPECT_EQ(rec["threads_while_writing"].get<int>(), cores - 1);
+  EXPECT_GT(rec["steps_while_writing"].get<int>(), 0);
+  EXPECT_LT(rec["steps_while_writing"].get<int>(), rec["steps"].get<int>());
+  // One thread leaves every core free: nothing to give.
+  EXPECT_FALSE(json::parse(slurp(dir / "t1/run.json")).contains("threads_while_writing"));
+  size_t files = 0;
+  for (const auto& e : fs::recursive_directory_iterator(dir / "t1")) {
+    if (!e.is_regular_file() || e.path().filename() == "run.json") continue;
+    const fs::path rel = fs::relative(e.path(), dir / "t1");
+    EXPECT_TRUE(slurp(e.path()) == slurp(dir / "all" / rel)) << rel << " differs";
+    ++files;
+  }
+  // 4 frames of particles, volumes and previews, and the contact sheet.
+  EXPECT_GE(files, 13u);
 }
 
 // The mixed scene with rigid bodies: a box thrown into the sand and
