@@ -1,5 +1,8 @@
 #include "sim/mpm/transfer.h"
 
+#include <omp.h>
+
+#include <algorithm>
 #include <cstring>
 
 #include "sim/mpm/halo.h"
@@ -43,6 +46,38 @@ size_t layoutParticles(const GridLayout& layout) {
   size_t n = 0;
   for (const std::vector<uint32_t>& off : layout.offsets) n += off.empty() ? 0 : off.back();
   return n;
+}
+
+// Where each of `team` threads' run of particle blocks starts in the
+// transfers (team + 1 entries, the last the block count): contiguous runs
+// holding equal shares of the awake particles. The scatter and the gather
+// both hand out blocks by these runs, so a block's particles meet the same
+// core in both passes, whose caches still hold them; handed out as they came
+// free, a block met a different core in each pass, and at 2 threads the
+// jelly's gather took 0.90 s where it took 1.08 s at one (0.57 s in runs).
+// Runs by block count alone left a material filling one side of the domain
+// on one thread.
+std::vector<uint32_t> blockRuns(const GridLayout& layout, int team) {
+  const size_t nb = layout.particleBlocks();
+  auto awake = [&](size_t pb) {
+    uint64_t n = 0;
+    if (!layout.sleeping(pb))
+      for (const std::vector<uint32_t>& off : layout.offsets) n += off[pb + 1] - off[pb];
+    return n;
+  };
+  uint64_t total = 0;
+  for (size_t pb = 0; pb < nb; ++pb) total += awake(pb);
+  std::vector<uint32_t> runs(size_t(team) + 1, uint32_t(nb));
+  runs[0] = 0;
+  uint64_t before = 0;  // awake particles in blocks [0, pb)
+  int t = 1;
+  for (size_t pb = 0; pb < nb && t < team; ++pb) {
+    // Thread t starts at the first block with at least its share before it.
+    while (t < team && before * uint64_t(team) >= total * uint64_t(t))
+      runs[size_t(t++)] = uint32_t(pb);
+    before += awake(pb);
+  }
+  return runs;
 }
 
 // Particles per stress chunk: the batched SVD fills the vector lanes, and a
@@ -343,22 +378,33 @@ float scatterAll(std::vector<ParticleSet>& sets, const GridLayout& layout, const
   // Colours run one after another; blocks of one colour touch disjoint nodes,
   // so each node's sum has the same order for any thread count. One
   // parallel region for all eight (a barrier between colours): a region
-  // per colour cost a wake-up of the sleeping threads each.
+  // per colour cost a wake-up of the sleeping threads each. Each thread
+  // takes the blocks of its run (blockRuns) in every colour.
   const bool layered = layout.layered_blocks > 0 && layers != nullptr;
   std::vector<SetScales> scales;
   for (const ParticleSet& set : sets) scales.push_back(setScales(set, p));
   float max_scale = 1.0f;
+  std::vector<uint32_t> runs;
 #pragma omp parallel reduction(max : max_scale) if (layoutParticles(layout) > kParallelTransfer)
   {
     HaloBuffer<4> buf;
     HaloBuffer<4> fbuf;
     std::vector<Mat3f> keep_F;
     std::vector<float> keep_J;
+#pragma omp single
+    runs = blockRuns(layout, omp_get_num_threads());
+    const uint32_t first = runs[size_t(omp_get_thread_num())];
+    const uint32_t last = runs[size_t(omp_get_thread_num()) + 1];
     for (int colour = 0; colour < 8; ++colour) {
+      // This colour's blocks in the run (the lists are in block order).
       const std::vector<uint32_t>& blocks = layout.colour_blocks[colour];
-#pragma omp for schedule(dynamic, 1)
-      for (int64_t k = 0; k < static_cast<int64_t>(blocks.size()); ++k) {
-        const size_t pb = blocks[k];
+      const auto from = std::lower_bound(blocks.begin(), blocks.end(), first);
+      const auto to = std::lower_bound(from, blocks.end(), last);
+      if (colour > 0) {
+#pragma omp barrier
+      }
+      for (auto it = from; it != to; ++it) {
+        const size_t pb = *it;
         if (layout.sleeping(pb)) {
           if (!halos) continue;
           sleepingHalo<kFlip>(sets, layout, pb, p, *halos, buf, fbuf, keep_F, keep_J);
@@ -399,19 +445,51 @@ float scatterAll(std::vector<ParticleSet>& sets, const GridLayout& layout, const
   return max_scale;
 }
 
+// Gathers block pb's particles of `set` from the block's halo of nodes in
+// buf (and fbuf with FLIP), and raises block_max2 to their largest speed².
 template <class M, bool kFlip>
-G2PStats gatherSet(ParticleSet& set, size_t s, const GridLayout& layout,
-                   const TransferParams& p, const std::vector<GridNode>& grid,
-                   const std::vector<GridNode>* flip, float* block_speed2) {
-  const std::vector<uint32_t>& off = layout.offsets[s];
+void gatherBlock(ParticleSet& set, const std::vector<uint32_t>& off, size_t pb, const Vec3i& origin,
+                 const TransferParams& p, const HaloBuffer<4>& buf, const HaloBuffer<4>& fbuf,
+                 float& block_max2, int& all_finite) {
   const float dt = p.dt;
   const float c_scale = 4.0f * p.inv_dx;
   const float flip_ratio = p.flip_ratio;
+  for (uint32_t i = off[pb]; i < off[pb + 1]; ++i) {
+    const Stencil st = stencilAt(set.x[i], p.shifted_origin, p.inv_dx);
+    const Vec3i h = haloOffset(st, origin);
+    Vec3f v, dv;
+    Mat3f B;
+    gatherAffine<kFlip>(buf, &fbuf, h, st, v, B, dv);
+    // Everything read again below comes from registers, not from the
+    // particle just stored: a wide load of C or x waited on its stores
+    // (they cannot be forwarded to it), and with two threads that wait
+    // was a third of the jelly's gather (8.3 -> 9.9 M particle-substeps/s)
+    // and a fifth of water's (G2P 0.90 -> 0.72 s over the dam break's
+    // first 0.05 s, while its column is packed).
+    const Mat3f C = c_scale * B;
+    const Vec3f x = (set.x[i] + dt * v).cwiseMax(p.domain_lo).cwiseMin(p.domain_hi);
+    if constexpr (kFlip) v = flip_ratio * (set.v[i] + dv) + (1.0f - flip_ratio) * v;
+    set.C[i] = C;
+    set.x[i] = x;
+    set.v[i] = v;
+    updateDeformation<M>(set, i, dt, C);
+    block_max2 = std::max(block_max2, v.squaredNorm());
+    if (!std::isfinite(block_max2 + x.sum() + C.sum())) all_finite = 0;
+  }
+}
+
+template <bool kFlip>
+G2PStats gatherAll(std::vector<ParticleSet>& sets, const GridLayout& layout,
+                   const TransferParams& p, const std::vector<GridNode>& grid,
+                   const std::vector<GridNode>* flip, float* block_speed2) {
   float max_speed2 = 0.0f;
   int all_finite = 1;
-  const bool parallel = off.back() > kParallelTransfer;
+  // One pass over the blocks, every set's particles of a block in turn: the
+  // block's halo is read once, and each thread takes the run of blocks it
+  // scattered (blockRuns).
+  std::vector<uint32_t> runs;
   // clang-format off
-#pragma omp parallel reduction(max : max_speed2) reduction(min : all_finite) if (parallel)
+#pragma omp parallel reduction(max : max_speed2) reduction(min : all_finite) if (layoutParticles(layout) > kParallelTransfer)
   // clang-format on
   {
     HaloBuffer<4> buf;
@@ -419,36 +497,31 @@ G2PStats gatherSet(ParticleSet& set, size_t s, const GridLayout& layout,
     // The node past the halo, which rows' reads reach: zero, never filled.
     std::memset(buf.d[kHaloNodes], 0, sizeof(buf.d[kHaloNodes]));
     std::memset(fbuf.d[kHaloNodes], 0, sizeof(fbuf.d[kHaloNodes]));
-#pragma omp for schedule(dynamic, 1)
-    for (int64_t pb = 0; pb < static_cast<int64_t>(layout.particleBlocks()); ++pb) {
-      if (off[pb] == off[pb + 1] || layout.sleeping(size_t(pb))) continue;
-      float block_max2 = 0.0f;
-      const Vec3i origin = haloOrigin(layout, size_t(pb));
+#pragma omp single
+    runs = blockRuns(layout, omp_get_num_threads());
+    const uint32_t last = runs[size_t(omp_get_thread_num()) + 1];
+    for (size_t pb = runs[size_t(omp_get_thread_num())]; pb < last; ++pb) {
+      if (layout.sleeping(pb)) continue;
+      bool any = false;
+      for (size_t s = 0; s < sets.size() && !any; ++s)
+        any = layout.offsets[s][pb] != layout.offsets[s][pb + 1];
+      if (!any) continue;
       forHalo(layout, pb, [&](int h, size_t node) {
         std::memcpy(buf.d[h], &grid[node], sizeof(GridNode));
         if constexpr (kFlip) std::memcpy(fbuf.d[h], &(*flip)[node], sizeof(GridNode));
       });
-      for (uint32_t i = off[pb]; i < off[pb + 1]; ++i) {
-        const Stencil st = stencilAt(set.x[i], p.shifted_origin, p.inv_dx);
-        const Vec3i h = haloOffset(st, origin);
-        Vec3f v, dv;
-        Mat3f B;
-        gatherAffine<kFlip>(buf, &fbuf, h, st, v, B, dv);
-        // Everything read again below comes from registers, not from the
-        // particle just stored: a wide load of C or x waited on its stores
-        // (they cannot be forwarded to it), and with two threads that wait
-        // was a third of the jelly's gather (8.3 -> 9.9 M particle-substeps/s)
-        // and a fifth of water's (G2P 0.90 -> 0.72 s over the dam break's
-        // first 0.05 s, while its column is packed).
-        const Mat3f C = c_scale * B;
-        const Vec3f x = (set.x[i] + dt * v).cwiseMax(p.domain_lo).cwiseMin(p.domain_hi);
-        if constexpr (kFlip) v = flip_ratio * (set.v[i] + dv) + (1.0f - flip_ratio) * v;
-        set.C[i] = C;
-        set.x[i] = x;
-        set.v[i] = v;
-        updateDeformation<M>(set, i, dt, C);
-        block_max2 = std::max(block_max2, v.squaredNorm());
-        if (!std::isfinite(block_max2 + x.sum() + C.sum())) all_finite = 0;
+      const Vec3i origin = haloOrigin(layout, pb);
+      float block_max2 = 0.0f;
+      for (size_t s = 0; s < sets.size(); ++s) {
+        const std::vector<uint32_t>& off = layout.offsets[s];
+        if (off[pb] == off[pb + 1]) continue;
+        // The material variant is visited once per block and set.
+        std::visit(
+            [&](const auto& model) {
+              gatherBlock<std::decay_t<decltype(model)>, kFlip>(sets[s], off, pb, origin, p, buf,
+                                                                fbuf, block_max2, all_finite);
+            },
+            sets[s].model);
       }
       max_speed2 = std::max(max_speed2, block_max2);
       if (block_speed2) block_speed2[pb] = std::max(block_speed2[pb], block_max2);
@@ -530,22 +603,10 @@ void sleepersThatWouldMove(const std::vector<ParticleSet>& sets, const GridLayou
 G2PStats gridToParticles(std::vector<ParticleSet>& sets, const GridLayout& layout,
                          const TransferParams& p, const std::vector<GridNode>& grid,
                          const std::vector<GridNode>* flip, std::vector<float>* block_speed2) {
-  G2PStats total;
   if (block_speed2) block_speed2->assign(layout.particleBlocks(), 0.0f);
   float* bs = block_speed2 ? block_speed2->data() : nullptr;
-  for (size_t s = 0; s < sets.size(); ++s) {
-    ParticleSet& set = sets[s];
-    const G2PStats st = std::visit(
-        [&](const auto& model) {
-          using M = std::decay_t<decltype(model)>;
-          return flip ? gatherSet<M, true>(set, s, layout, p, grid, flip, bs)
-                      : gatherSet<M, false>(set, s, layout, p, grid, nullptr, bs);
-        },
-        set.model);
-    total.max_speed = std::max(total.max_speed, st.max_speed);
-    total.finite = total.finite && st.finite;
-  }
-  return total;
+  return flip ? gatherAll<true>(sets, layout, p, grid, flip, bs)
+              : gatherAll<false>(sets, layout, p, grid, nullptr, bs);
 }
 
 }  // namespace triad
