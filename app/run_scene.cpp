@@ -176,12 +176,9 @@ int runScene(const RunOptions& options_in) {
   OutputThread output(overlap);
   rec.output_overlap = overlap;
   if (yield_core) rec.threads_while_writing = solver_threads - 1;
-  int team = solver_threads;  // the threads the next step runs on
   uint64_t steps_while_writing = 0;
   auto shareCores = [&]() {
-    if (!yield_core) return;
-    team = output.busy() ? solver_threads - 1 : solver_threads;
-    omp_set_num_threads(team);
+    if (yield_core) omp_set_num_threads(output.busy() ? solver_threads - 1 : solver_threads);
   };
 
   rec.scene_name = scene.name;
@@ -425,7 +422,7 @@ int runScene(const RunOptions& options_in) {
       solver.resetLoads();
       shareCores();
       solver.advanceTo(t_frame, [&](double dt) {
-        if (team < solver_threads) ++steps_while_writing;
+        if (omp_get_max_threads() < solver_threads) ++steps_while_writing;
         shareCores();
         progress.step(frame, world.steps, world.time, dt);
         checkInterrupt();
