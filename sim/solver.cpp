@@ -399,7 +399,10 @@ void Solver::predictSolids(double dt) {
     const Mat3f R = b.rotation().cast<float>();
     const Vec3f c = b.state.x.cast<float>(), v = b.state.v.cast<float>();
     const Vec3f w = b.omega().cast<float>();
-#pragma omp parallel for schedule(static) if (n > 8192)
+    // Split from a few thousand points: the last step's scatter left these
+    // arrays in every core's cache, and one thread alone rewriting them
+    // waits on each line.
+#pragma omp parallel for schedule(static) if (n > 2048)
     for (int64_t q = 0; q < int64_t(n); ++q) {
       const Vec3f r = R * b.r[q];
       points_.x[first + q] = c + r;

@@ -235,6 +235,54 @@ TEST(Coupling, LightBallStopsAtTheSurfaceHeavyBallBuries) {
   EXPECT_EQ(light.sand_inside, 0u);
 }
 
+// Two boxes sliding over two sand beds with a gap between them: nothing
+// joins them but the solver, so each moves as it does alone. The Jacobi
+// passes keep each body's velocity change apart; a body that took
+// another's in its friction would slide differently (5e-4 m apart after
+// 0.3 s), and one that stopped its passes on all bodies' impulses rather
+// than its own would stop earlier or later (1e-5 m). Nothing else differs:
+// the positions agree to rounding.
+std::vector<Vec3d> slideOnTwoBeds(bool first, bool second, const std::string& tag) {
+  json j = test::baseScene("beds", {1.0, 0.3, 0.3}, 0.025);
+  // A step that the bodies' speeds do not set: the same steps in each run.
+  j["solver"] = {{"max_dt", 2e-4}};
+  j["materials"]["sand"] = sand();
+  j["objects"].push_back(mpm("bed_a", "sand", box({0.0, 0.0, 0.0}, {0.35, 0.1, 0.3})));
+  j["objects"].push_back(mpm("bed_b", "sand", box({0.65, 0.0, 0.0}, {1.0, 0.1, 0.3})));
+  // Each slides away from the gap, so that no grain thrown up crosses it.
+  if (first)
+    j["objects"].push_back(
+        rigid("a", box({0.2, 0.1, 0.1}, {0.3, 0.15, 0.2}), 800, 0.5, {-1.0, 0, 0.3}));
+  if (second)
+    j["objects"].push_back(
+        rigid("b", box({0.7, 0.1, 0.08}, {0.8, 0.14, 0.22}), 2000, 0.8, {1.5, -0.5, 0}));
+  World w = test::loadWorld(test::tempDir("beds_" + tag), j);
+  Solver solver(w);
+  solver.advanceTo(0.3);
+  EXPECT_TRUE(finiteWorld(w)) << tag;
+  std::vector<Vec3d> x;
+  for (const RigidBody& b : w.bodies) x.push_back(b.state.x);
+  return x;
+}
+
+TEST(Coupling, TwoBodiesOnSeparateBedsMoveAsEachAlone) {
+  const std::vector<Vec3d> a = slideOnTwoBeds(true, false, "a");
+  const std::vector<Vec3d> b = slideOnTwoBeds(false, true, "b");
+  const std::vector<Vec3d> both = slideOnTwoBeds(true, true, "both");
+  ASSERT_EQ(a.size(), 1u);
+  ASSERT_EQ(b.size(), 1u);
+  ASSERT_EQ(both.size(), 2u);
+  std::printf("a alone (%g %g %g), with b (%g %g %g); b alone (%g %g %g), with a (%g %g %g)\n",
+              a[0].x(), a[0].y(), a[0].z(), both[0].x(), both[0].y(), both[0].z(), b[0].x(),
+              b[0].y(), b[0].z(), both[1].x(), both[1].y(), both[1].z());
+  // Each ploughed into its bed (a sank 3 cm from 0.125 m, b 2.7 cm from
+  // 0.12 m): both were in contact all along.
+  EXPECT_LT(a[0].y(), 0.125 - 0.015);
+  EXPECT_LT(b[0].y(), 0.12 - 0.015);
+  EXPECT_LT((both[0] - a[0]).norm(), 1e-7);
+  EXPECT_LT((both[1] - b[0]).norm(), 1e-7);
+}
+
 // With gravity off, a sand block hits a free rigid box. Everything that
 // moves is sand or the box, so total momentum should stay what it was.
 double momentumDrift(const std::string& readback, const std::string& velocity,

@@ -15,6 +15,10 @@ constexpr int32_t kNoSlot = -1;
 // Newton's method on a body's six velocity unknowns: a few iterations in
 // practice (piecewise quadratic energy); this only bounds a pathological case.
 constexpr int kNewtonIterations = 50;
+// Below this many slot blocks a pass over their nodes is shorter than
+// waking the other threads and moving the nodes to their cores (a few
+// hundred slots take tens of microseconds).
+constexpr int64_t kParallelSlots = 1024;
 
 // A node no solid reaches: no mass, and as far outside as can be.
 const GridCoupling::SolidNode kEmptyNode{0, {0, 0, 0}, {0, 0, 0}, 0, 0, {0, 0, 0}, {0, 0, 0},
@@ -425,7 +429,7 @@ void GridCoupling::keepPreUpdate(const std::vector<GridNode>& grid) {
     return;
   }
   pre_.assign(nodes_.size(), Vec3f::Zero());
-#pragma omp parallel for schedule(static) if (slot_block_.size() > 64)
+#pragma omp parallel for schedule(static) if (int64_t(slot_block_.size()) > kParallelSlots)
   for (int64_t s = 0; s < int64_t(slot_block_.size()); ++s)
     for (int k = 0; k < kBlockNodes; ++k) {
       const GridNode& g = grid[size_t(slot_block_[s]) * kBlockNodes + k];
@@ -465,7 +469,7 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
   static_assert(kBlockNodes == 64, "a mask per block");
   std::vector<uint32_t> first(size_t(slots) + 1, 0);
   std::vector<uint64_t> contact_mask(size_t(slots), 0);
-#pragma omp parallel for schedule(static) if (slots > 64)
+#pragma omp parallel for schedule(static) if (slots > kParallelSlots)
   for (int64_t j = 0; j < slots; ++j) {
     const size_t s = by_key[size_t(j)];
     uint64_t mask = 0;
@@ -478,7 +482,7 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
   }
   for (int64_t j = 0; j < slots; ++j) first[size_t(j) + 1] += first[size_t(j)];
   shared_.resize(first.back());
-#pragma omp parallel for schedule(static) if (slots > 64)
+#pragma omp parallel for schedule(static) if (slots > kParallelSlots)
   for (int64_t j = 0; j < slots; ++j) {
     const size_t s = by_key[size_t(j)];
     const size_t gb = slot_block_[s];
@@ -633,34 +637,7 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
   // With rigid_collision newton, each moving body's normal impulses are
   // solved exactly first; the passes then only settle friction.
   if (newton && !moving_.empty()) solveBodyNormals(pts, kNewtonIterations, dV, dW);
-  for (;; ++pass) {
-    // Each body takes the opposite of its nodes' new impulses.
-    std::vector<Vec3f> dp(nsolids, Vec3f::Zero()), dl(nsolids, Vec3f::Zero());
-    for (uint32_t k : moving_) {
-      const Shared& c = shared_[k];
-      dp[c.solid] -= c.dP;
-      dl[c.solid] -= (c.x - pts.centre[c.solid]).cross(c.dP);
-    }
-    for (size_t b = 0; b < nsolids; ++b) {
-      dV[b] += pts.inv_mass[b] * dp[b];
-      dW[b] += pts.inv_inertia[b] * dl[b];
-    }
-    if (pass >= passes) break;
-    // Converged when no node's impulse changes by more than a thousandth of
-    // the largest (max is order-free: the same for any thread count).
-    float change = 0.0f, largest = 0.0f;
-#pragma omp parallel for schedule(static) reduction(max : change, largest) if (moving_.size() > 8192)
-    for (int64_t k = 0; k < int64_t(moving_.size()); ++k) {
-      Shared& c = shared_[moving_[k]];
-      relax(c);
-      change = std::max(change, c.dP.norm());
-      largest = std::max(largest, c.P.norm());
-    }
-    if (change <= 1e-3f * largest) {
-      ++pass;  // count the pass just done
-      break;
-    }
-  }
+  pass = relaxMoving(pts, share, pass, passes, dV, dW);
 
   stats_.passes = std::min(pass, passes);
   size_t collisions = 0;

@@ -214,6 +214,16 @@ class GridCoupling {
   // the largest number of iterations a body took.
   int solveBodyNormals(const SolidPoints& points, int max_iterations, std::vector<Vec3f>& dV,
                        std::vector<Vec3f>& dW);
+  // The Jacobi passes over the moving bodies' nodes (moving_), from pass
+  // `pass` to at most `passes`, each body taking the opposite of its nodes'
+  // impulses between passes; returns the pass count as the loop counts it.
+  int relaxMoving(const SolidPoints& points, const std::vector<float>& share, int pass, int passes,
+                  std::vector<Vec3f>& dV, std::vector<Vec3f>& dW);
+  // relaxMoving's nodes, a body's after another, in vector lanes: one array
+  // of each quantity (kMovingFields of them, field by field), each body's
+  // run padded to whole lanes with nodes that take no impulse.
+  std::vector<float> moving_lanes_;
+  std::vector<uint32_t> moving_start_;  // per body: its first lane; one more at the end
 
   // Split over processes: shared_ becomes every process's owned shared
   // nodes, in process order, each mapped to this process's copy of its
