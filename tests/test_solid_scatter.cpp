@@ -60,6 +60,9 @@ void addPoints(Scene& s, unsigned seed, float moved) {
   s.pts.clear();
   const SolidKind kinds[3] = {SolidKind::Moving, SolidKind::Driven, SolidKind::Static};
   const float centres[3] = {0.02f + moved, -0.06f - moved, 0.09f};
+  // The fixed one also reaches below the others, into grid blocks that no
+  // moving point reaches (slots of fixed solids alone).
+  const float low[3] = {0.0f, 0.0f, -0.04f}, tall[3] = {0.05f, 0.05f, 0.06f};
   for (int k = 0; k < 3; ++k) {
     const float mass = 2e-4f * float(k + 1);
     s.pts.addSolid(mass, 0.2f + 0.1f * float(k), kinds[k],
@@ -68,7 +71,8 @@ void addPoints(Scene& s, unsigned seed, float moved) {
     // stay the same.
     std::mt19937 rng(kinds[k] == SolidKind::Static ? 99u : seed + unsigned(k));
     for (int q = 0; q < 700; ++q) {
-      s.pts.x.push_back(Vec3f(centres[k] + 0.05f * u(rng), 0.05f * u(rng), 0.05f * u(rng)));
+      s.pts.x.push_back(
+          Vec3f(centres[k] + 0.05f * u(rng), low[k] + tall[k] * u(rng), 0.05f * u(rng)));
       s.pts.v.push_back(kinds[k] == SolidKind::Static ? Vec3f::Zero()
                                                       : Vec3f(u(rng), u(rng), u(rng)));
       s.pts.n.push_back(Vec3f(u(rng), u(rng), u(rng) + 2.0f).normalized());

@@ -1,5 +1,7 @@
 #include "sim/coupling/coupling.h"
 
+#include <omp.h>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -213,7 +215,7 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
   // Base blocks whose stencils reach the MPM grid; their neighbours' slots.
   layout_keys_ = &layout.grid_keys;
   blocks_.clear();
-  by_size_.clear();
+  block_points_.assign(1, 0);
   slot_moving_.clear();
   slot_fixed_.clear();
   block_slot_.assign(layout.gridBlocks(), kNoSlot);
@@ -251,7 +253,7 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
       }
       stats_.active_points += count;
       blk.last = uint32_t(order_.size());
-      by_size_.push_back((uint64_t(~count) << 32) | blocks_.size());
+      block_points_.push_back(block_points_.back() + count);
       blocks_.push_back(blk);
     }
     r = e;
@@ -303,14 +305,24 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
   stencils_.resize(n);
   halos_.resize(blocks_.size() * kHaloNodes);
   halo_box_.resize(blocks_.size());
-  // The fullest blocks first: a solid's blocks hold from a few points to
-  // hundreds, and a thread left with a full one at the end waits alone.
-  std::sort(by_size_.begin(), by_size_.end());
+  // Each thread takes a run of consecutive base blocks with an equal share
+  // of the points, and then the slots whose first source block is in its
+  // run. Blocks are in key order, and a rigid body's points lie in lattice
+  // order and were posed by halves (Solver::predictSolids), so a thread
+  // mostly reads the points it wrote and the halos it filled: between
+  // cores a cache line costs a transfer of some hundred nanoseconds, and
+  // with blocks and slots dealt out as threads came free the slots' pass
+  // ran slower on two threads than on one.
 #pragma omp parallel if (stats_.active_points > 512)
   {
-#pragma omp for schedule(dynamic, 1)
-    for (int64_t j = 0; j < int64_t(blocks_.size()); ++j) {
-      const size_t k = size_t(by_size_[size_t(j)] & 0xffffffffu);
+    const int threads = omp_get_num_threads(), me = omp_get_thread_num();
+    std::vector<size_t> run(size_t(threads) + 1, blocks_.size());
+    for (int t = 0; t < threads; ++t)
+      run[size_t(t)] = size_t(
+          std::lower_bound(block_points_.begin(), block_points_.end() - 1,
+                           uint64_t(block_points_.back()) * uint64_t(t) / uint64_t(threads)) -
+          block_points_.begin());
+    for (size_t k = run[size_t(me)]; k < run[size_t(me) + 1]; ++k) {
       // The stencils first, and the box of halo nodes they reach: only that
       // box is emptied here and read by the slots (a block of a solid's
       // surface reaches a slab of its halo, and emptying all of it cost
@@ -351,8 +363,20 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
         }
       }
     }
-#pragma omp for schedule(dynamic, 1)
+#pragma omp barrier
     for (int64_t s = 0; s < int64_t(slot_sources_.size()); ++s) {
+      // The thread whose run holds the slot's first source block.
+      int32_t first = -1;
+      for (const int32_t source : slot_sources_[size_t(s)])
+        if (source >= 0) {
+          first = source >> 3;
+          break;
+        }
+      const size_t owner =
+          first < 0
+              ? size_t(s) % size_t(threads)
+              : size_t(std::upper_bound(run.begin(), run.end(), size_t(first)) - run.begin()) - 1;
+      if (owner != size_t(me)) continue;
       SolidNode* slot_nodes = &nodes_[size_t(s) * kBlockNodes];
       if (slot_fixed_[size_t(s)] >= 0)
         std::copy_n(&fixed_nodes_[size_t(slot_fixed_[size_t(s)]) * kBlockNodes], kBlockNodes,
@@ -793,7 +817,7 @@ size_t GridCoupling::bytes() const {
          (front_dv_.capacity() + rest_dv_.capacity()) * sizeof(Vec3f) + split_.capacity() * 8 +
          listBytes(front_lists_) + slot_sources_.capacity() * sizeof(slot_sources_[0]) +
          stencils_.capacity() * sizeof(Stencil) + halos_.capacity() * sizeof(SolidNode) +
-         slot_fixed_.capacity() * 4 + by_size_.capacity() * 8 + halo_box_.capacity() * 6 +
+         slot_fixed_.capacity() * 4 + block_points_.capacity() * 4 + halo_box_.capacity() * 6 +
          listBytes(gap_threads_);
 }
 
