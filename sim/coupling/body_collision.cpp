@@ -106,34 +106,22 @@ int GridCoupling::relaxMoving(const SolidPoints& pts, const std::vector<float>& 
     node[j] = k;
     const Vec3f r = c.x - pts.centre[size_t(c.solid)];
     const float m_solid = c.m_vol * share[size_t(c.solid)];
-    const float values[kMovingFields] = {c.n.x(),
-                                         c.n.y(),
-                                         c.n.z(),
-                                         r.x(),
-                                         r.y(),
-                                         r.z(),
-                                         c.v_cmp.x(),
-                                         c.v_cmp.y(),
-                                         c.v_cmp.z(),
-                                         c.v_vol.x(),
-                                         c.v_vol.y(),
-                                         c.v_vol.z(),
-                                         c.m_mpm,
-                                         c.close,
-                                         c.m_mpm * m_solid / (c.m_mpm + m_solid),
-                                         c.mu,
-                                         c.n.isZero() ? 0.0f : 1.0f,
-                                         c.lambda,
-                                         c.T.x(),
-                                         c.T.y(),
-                                         c.T.z(),
-                                         c.P.x(),
-                                         c.P.y(),
-                                         c.P.z(),
-                                         c.dP.x(),
-                                         c.dP.y(),
-                                         c.dP.z()};
-    for (int q = 0; q < kMovingFields; ++q) f[q][j] = values[q];
+    auto put = [&](int q, const Vec3f& a) {
+      for (int d = 0; d < 3; ++d) f[q + d][j] = a[d];
+    };
+    put(kNx, c.n);
+    put(kRx, r);
+    put(kCx, c.v_cmp);
+    put(kWx, c.v_vol);
+    put(kTx, c.T);
+    put(kPx, c.P);
+    put(kDx, c.dP);
+    f[kMass][j] = c.m_mpm;
+    f[kClose][j] = c.close;
+    f[kReduced][j] = c.m_mpm * m_solid / (c.m_mpm + m_solid);
+    f[kMu][j] = c.mu;
+    f[kActive][j] = c.n.isZero() ? 0.0f : 1.0f;
+    f[kLambda][j] = c.lambda;
   }
   const Pack zero = svd3_detail::splat<Pack>(0.0f);
   // A body whose nodes have converged takes no more passes: each body
