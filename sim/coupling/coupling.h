@@ -57,7 +57,7 @@ struct CouplingStats {
   size_t active_points = 0;  // collision particles whose stencil met the MPM grid
   size_t shared_nodes = 0;   // nodes with both MPM and solid mass
   size_t collisions = 0;     // shared nodes that were approaching (three grids)
-  int passes = 0;            // Jacobi passes of the collision until converged
+  int passes = 0;            // Jacobi passes of the collision until converged (the most a body took)
 };
 
 class GridCoupling {
@@ -217,7 +217,8 @@ class GridCoupling {
                        std::vector<Vec3f>& dW);
   // The Jacobi passes over the moving bodies' nodes (moving_), from pass
   // `pass` to at most `passes`, each body taking the opposite of its nodes'
-  // impulses between passes; returns the pass count as the loop counts it.
+  // impulses between passes and stopping once its own nodes converge;
+  // returns the most passes a body took.
   int relaxMoving(const SolidPoints& points, const std::vector<float>& share, int pass, int passes,
                   std::vector<Vec3f>& dV, std::vector<Vec3f>& dW);
   // relaxMoving's nodes, a body's after another, in vector lanes: one array
