@@ -57,7 +57,7 @@ struct CouplingStats {
   size_t active_points = 0;  // collision particles whose stencil met the MPM grid
   size_t shared_nodes = 0;   // nodes with both MPM and solid mass
   size_t collisions = 0;     // shared nodes that were approaching (three grids)
-  int passes = 0;            // Jacobi passes of the collision until converged (the most a body took)
+  int passes = 0;            // Jacobi passes until converged (the most a body took)
 };
 
 class GridCoupling {
