@@ -208,12 +208,8 @@ int GridCoupling::relaxMoving(const SolidPoints& pts, const std::vector<float>& 
         change = c2 > change ? c2 : change;
         largest = p2 > largest ? p2 : largest;
       }
-      float most_change = 0.0f, most_impulse = 0.0f;
-      for (int l = 0; l < kLanes; ++l) {
-        most_change = std::max(most_change, lane(change, l));
-        most_impulse = std::max(most_impulse, lane(largest, l));
-      }
-      done[b] = std::sqrt(most_change) <= 1e-3f * std::sqrt(most_impulse);
+      done[b] = std::sqrt(svd3_detail::laneMax(change)) <=
+                1e-3f * std::sqrt(svd3_detail::laneMax(largest));
       all_done = all_done && done[b];
     }
     if (all_done) {

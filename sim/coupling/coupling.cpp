@@ -316,12 +316,7 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
 #pragma omp parallel if (stats_.active_points > 512)
   {
     const int threads = omp_get_num_threads(), me = omp_get_thread_num();
-    std::vector<size_t> run(size_t(threads) + 1, blocks_.size());
-    for (int t = 0; t < threads; ++t)
-      run[size_t(t)] = size_t(
-          std::lower_bound(block_points_.begin(), block_points_.end() - 1,
-                           uint64_t(block_points_.back()) * uint64_t(t) / uint64_t(threads)) -
-          block_points_.begin());
+    const std::vector<uint32_t> run = equalShareRuns(block_points_, threads);
     for (size_t k = run[size_t(me)]; k < run[size_t(me) + 1]; ++k) {
       // The stencils first, and the box of halo nodes they reach: only that
       // box is emptied here and read by the slots (a block of a solid's
@@ -817,7 +812,7 @@ size_t GridCoupling::bytes() const {
          (front_dv_.capacity() + rest_dv_.capacity()) * sizeof(Vec3f) + split_.capacity() * 8 +
          listBytes(front_lists_) + slot_sources_.capacity() * sizeof(slot_sources_[0]) +
          stencils_.capacity() * sizeof(Stencil) + halos_.capacity() * sizeof(SolidNode) +
-         slot_fixed_.capacity() * 4 + block_points_.capacity() * 4 + halo_box_.capacity() * 6 +
+         slot_fixed_.capacity() * 4 + block_points_.capacity() * 8 + halo_box_.capacity() * 6 +
          listBytes(gap_threads_) + moving_lanes_.capacity() * 4 + moving_start_.capacity() * 4;
 }
 

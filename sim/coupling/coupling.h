@@ -198,8 +198,8 @@ class GridCoupling {
   // (inclusive) x, y, z.
   std::vector<std::array<int8_t, 6>> halo_box_;
   std::vector<int32_t> slot_fixed_;    // per slot: its block in fixed_keys_, or -1
-  std::vector<uint32_t>
-      block_points_;  // per base block: points in those before it; one more at the end
+  // Per base block: the points of the blocks before it; one more at the end.
+  std::vector<uint64_t> block_points_;
   std::vector<uint64_t> point_key_;    // per point: base block key
   void buildFixed(const SolidPoints& points, const TransferParams& p);
   // The least clearance of particle block pb's particles at each moving

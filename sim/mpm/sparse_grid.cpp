@@ -215,4 +215,17 @@ void addGridBlocks(GridLayout& layout, std::vector<uint64_t> keys) {
   layout.grid_keys = std::move(merged);
 }
 
+std::vector<uint32_t> equalShareRuns(const std::vector<uint64_t>& before, int team) {
+  const size_t items = before.size() - 1;
+  const uint64_t total = before.back();
+  std::vector<uint32_t> runs(size_t(team) + 1, uint32_t(items));
+  for (int t = 0; t < team; ++t)
+    runs[size_t(t)] = uint32_t(std::lower_bound(before.begin(), before.end() - 1, uint64_t(t),
+                                                [&](uint64_t sum, uint64_t k) {
+                                                  return sum * uint64_t(team) < total * k;
+                                                }) -
+                               before.begin());
+  return runs;
+}
+
 }  // namespace triad

@@ -129,6 +129,14 @@ inline float shiftedCoord(float x, float shifted_origin, float inv_dx) {
   return (x - shifted_origin) * inv_dx;
 }
 
+// Where each of `team` threads' run of consecutive items starts (team + 1
+// entries, the last the item count), for items weighing before[i + 1] -
+// before[i] (`before`: running sums from 0, one entry more than items):
+// thread t starts at the first item with at least its share of the whole
+// weight before it. Runs of equal weight rather than of equal count: a
+// material filling one side of the domain would sit on one thread.
+std::vector<uint32_t> equalShareRuns(const std::vector<uint64_t>& before, int team);
+
 inline Vec3i baseNode(const Vec3f& x, const Vec3f& shifted_origin, float inv_dx) {
   Vec3i b;
   for (int d = 0; d < 3; ++d)

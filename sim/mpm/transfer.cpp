@@ -55,29 +55,16 @@ size_t layoutParticles(const GridLayout& layout) {
 // core in both passes, whose caches still hold them; handed out as they came
 // free, a block met a different core in each pass, and at 2 threads the
 // jelly's gather took 0.90 s where it took 1.08 s at one (0.57 s in runs).
-// Runs by block count alone left a material filling one side of the domain
-// on one thread.
 std::vector<uint32_t> blockRuns(const GridLayout& layout, int team) {
   const size_t nb = layout.particleBlocks();
-  auto awake = [&](size_t pb) {
-    uint64_t n = 0;
+  std::vector<uint64_t> before(nb + 1, 0);  // awake particles in blocks [0, pb)
+  for (size_t pb = 0; pb < nb; ++pb) {
+    before[pb + 1] = before[pb];
     if (!layout.sleeping(pb))
-      for (const std::vector<uint32_t>& off : layout.offsets) n += off[pb + 1] - off[pb];
-    return n;
-  };
-  uint64_t total = 0;
-  for (size_t pb = 0; pb < nb; ++pb) total += awake(pb);
-  std::vector<uint32_t> runs(size_t(team) + 1, uint32_t(nb));
-  runs[0] = 0;
-  uint64_t before = 0;  // awake particles in blocks [0, pb)
-  int t = 1;
-  for (size_t pb = 0; pb < nb && t < team; ++pb) {
-    // Thread t starts at the first block with at least its share before it.
-    while (t < team && before * uint64_t(team) >= total * uint64_t(t))
-      runs[size_t(t++)] = uint32_t(pb);
-    before += awake(pb);
+      for (const std::vector<uint32_t>& off : layout.offsets)
+        before[pb + 1] += off[pb + 1] - off[pb];
   }
-  return runs;
+  return equalShareRuns(before, team);
 }
 
 // Particles per stress chunk: the batched SVD fills the vector lanes, and a
