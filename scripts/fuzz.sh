@@ -46,15 +46,24 @@ done
 export ASAN_OPTIONS=detect_leaks=0
 # Each run writes crash-*, leak-* or timeout-* inputs into the build dir.
 # The whole report is in build-fuzz/TARGET.log; on a failure its error part
-# is printed.
+# is printed. The targets run side by side, one core each.
+pids=()
 for t in "${targets[@]}"; do
   seed=()
   [ -n "${FUZZ_SEED:-}" ] && seed=(-seed="$FUZZ_SEED")
-  if ! (cd "$out" && "./fuzz_$t" "${seed[@]}" -max_total_time="$seconds" -timeout=30 -rss_limit_mb=2048 \
-          -print_final_stats=1 "$t" > "$t.log" 2>&1); then
+  (cd "$out" && exec "./fuzz_$t" "${seed[@]}" -max_total_time="$seconds" -timeout=30 -rss_limit_mb=2048 \
+     -print_final_stats=1 "$t" > "$t.log" 2>&1) &
+  pids+=($!)
+done
+failed=0
+for k in "${!targets[@]}"; do
+  t=${targets[$k]}
+  if ! wait "${pids[$k]}"; then
     grep -A40 -m1 "ERROR\|assert" "$out/$t.log" | head -60
     tail -12 "$out/$t.log"
-    exit 1
+    failed=1
+  else
+    tail -6 "$out/$t.log"
   fi
-  tail -6 "$out/$t.log"
 done
+exit "$failed"

@@ -21,8 +21,9 @@ PACKAGES=(
   # tests/ (vdb_print reads the VDB caches back independently; assimp-testmodels
   # holds real-world and broken meshes for the import tests)
   libgtest-dev libopenvdb-tools assimp-testmodels
-  # scripts/fuzz.sh: libFuzzer with clang's sanitizers
-  clang libclang-rt-14-dev
+  # scripts/fuzz.sh: libFuzzer with clang's sanitizers; the sanitizer build
+  # (scripts/build.sh sanitize) is clang's too, with LLVM's OpenMP
+  clang libclang-rt-14-dev libomp-dev
   # the suite's `validation` tests read the caches with numpy
   python3 python3-numpy
   # the suite's `client` tests open the caches with the programs users open

@@ -3,7 +3,9 @@
 // GCC 12 reports Eigen's AVX-512 reductions (12 x 12 LDL^T, norms),
 // inlined here, as reading uninitialized lanes: a known false positive.
 // The pragma must come before Eigen's headers to take effect.
+#if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
 #include <gtest/gtest.h>
 
 #include <algorithm>

@@ -26,12 +26,6 @@ namespace {
 using Vec6d = Eigen::Matrix<double, 6, 1>;
 using Mat6d = Eigen::Matrix<double, 6, 6>;
 
-inline Mat3d crossMatrix(const Vec3d& r) {
-  Mat3d m;
-  m << 0, -r.z(), r.y(), r.z(), 0, -r.x(), -r.y(), r.x(), 0;
-  return m;
-}
-
 using svd3_detail::kLanes;
 using svd3_detail::Pack;
 

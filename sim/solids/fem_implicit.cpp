@@ -1,7 +1,9 @@
 // GCC 12 warns of uninitialised AVX-512 lanes inside Eigen's 9x9 eigen
 // solver (a false positive reported in the intrinsics header, which the
 // first include pulls in: hence before it).
+#if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
 // Backward Euler for FEM bodies: Newton's method on the incremental
 // potential (Gast et al. 2015, "Optimization integrator"), with contact
 // penalties and lagged friction. The sparsity pattern and the direct
