@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # README command (b): install what is missing, build, and run every test:
 # the whole suite on the optimised build, then the fast unit tests again
-# under AddressSanitizer and UndefinedBehaviorSanitizer, then half a minute
-# each of fuzzing the scene loader and the mesh importer.
+# under AddressSanitizer and UndefinedBehaviorSanitizer (a clang build),
+# then half a minute of fuzzing the scene loader and the mesh importer side
+# by side.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
@@ -22,7 +23,7 @@ jobs=$(nproc)
 (cd build && ctest --output-on-failure -j "$jobs")
 scripts/build.sh sanitize triad_unit_tests
 (cd build-sanitize && ASAN_OPTIONS=detect_leaks=1 ctest --output-on-failure -L unit -j "$jobs")
-# The scene loader and the mesh importer under libFuzzer, half a minute each,
+# The scene loader and the mesh importer under libFuzzer, half a minute each at once,
 # from a fixed seed: a landing's result does not depend on the draw (longer
 # runs with new seeds are made by hand: scripts/fuzz.sh SECONDS).
 FUZZ_SEED=${FUZZ_SEED:-1} scripts/fuzz.sh 30 scene mesh
