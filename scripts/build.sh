@@ -16,9 +16,8 @@ case "$kind" in
   # the fuzzers need it anyway; TRIAD_SANITIZE_CXX=g++ picks GCC.
   sanitize) dir=build-sanitize
     cxx=${TRIAD_SANITIZE_CXX:-clang++}
-    case "$cxx" in clang++*) cc=${cxx/clang++/clang} ;; g++*) cc=${cxx/g++/gcc} ;; *) cc=cc ;; esac
     flags=(-DCMAKE_BUILD_TYPE=RelWithDebInfo "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g1" -DTRIAD_SANITIZE=ON
-           "-DCMAKE_C_COMPILER=$cc" "-DCMAKE_CXX_COMPILER=$cxx")
+           "-DCMAKE_CXX_COMPILER=$cxx")
     # A build folder made with another compiler is configured afresh.
     if [ -f "$dir/CMakeCache.txt" ] &&
        ! grep -q "^CMAKE_CXX_COMPILER:[A-Z]*=.*$(basename "$cxx")\$" "$dir/CMakeCache.txt"; then
