@@ -8,8 +8,22 @@ Usage (from the repository root; bench/validation/run.sh runs it after the
 sweep):
   /usr/bin/python3 bench/validation/experiments.py [--quick] [--threads N]
       [--only collapse,axisymmetric,dam_break] [--results DIR]
+      [--aspects 3,6] [--dx-factors 1,0.5] [--grain-diameter D]
+      [--channel-width W [--wall-friction MU]]
 
---quick   the base dx only (no refinement), for a smoke test
+--quick           the base dx only (no refinement), for a smoke test
+--aspects         the planar aspect ratios to run (default 0.5,1,2,3,6)
+--dx-factors      factors of the scenes' dx for the collapses (default 1,0.5)
+--grain-diameter  the sand's grain_diameter (m): the rate-dependent friction
+                  mu(I) (default 0: a constant friction)
+--channel-width   planar collapses between frictional side walls W apart
+                  (m), as in the experiments' channel; half of it is
+                  simulated, the domain's frictionless wall at z = 0 being
+                  the channel's plane of symmetry (default: none, the slab
+                  4 cells thick between frictionless walls, an infinitely
+                  wide channel)
+--wall-friction   the side walls' Coulomb coefficient against the sand
+                  (default 0.4, sand on acrylic or glass)
 
 Writes, under the results directory: collapse_aspect.csv and .png (run-out
 and final height against a, per geometry and dx, with the fitted laws),
@@ -44,10 +58,13 @@ def collapse_duration(a):
     return 1.0 + 0.25 * math.sqrt(a)
 
 
-def planar_scene(a, f):
+def planar_scene(a, f, channel=None, grain=0.0):
     """The planar case's scene at aspect ratio a and dx factor f: a column
     L0 x H0 whose smaller side is 0.1 m (10 cells at the scene's dx), against
-    the back wall, in a domain long enough for 1.6 times Lube's run-out."""
+    the back wall, in a domain long enough for 1.6 times Lube's run-out.
+    With channel = (W, mu_w), the column fills half a channel W wide, beside
+    a fixed side wall of friction mu_w; with grain > 0 the sand's friction
+    follows mu(I) for grains of that diameter."""
     s = V.load_scene("granular_collapse")
     dx = s["domain"]["dx"] * f
     floor = V.box_of(s, "floor")["max"][1]
@@ -62,6 +79,19 @@ def planar_scene(a, f):
     s["objects"][V.object_index(s, "floor")]["shape"]["box"] = {
         "min": [0, 0, 0], "max": [X, floor, 4 * dx]}
     s["frames"] = {"count": int(round(collapse_duration(a) * 25)), "fps": 25}
+    if grain > 0:
+        s["materials"]["sand"]["grain_diameter"] = grain
+    if channel:
+        # The channel's half from its plane of symmetry (z = 0) to the side
+        # wall, a fixed box three cells thick along the whole domain.
+        half, mu_w = 0.5 * channel[0], channel[1]
+        Z = half + 3 * dx
+        s["domain"]["max"][2] = Z
+        s["objects"][V.object_index(s, "column")]["shape"]["box"]["max"][2] = half
+        s["objects"][V.object_index(s, "floor")]["shape"]["box"]["max"][2] = Z
+        s["objects"].append({"name": "side_wall", "kind": "rigid", "density": 1000,
+                             "fixed": True, "friction": mu_w,
+                             "shape": {"box": {"min": [0, 0, half], "max": [X, Y, Z]}}})
     return s
 
 
@@ -104,13 +134,13 @@ def axisymmetric_scene(a, f, work):
     return s
 
 
-def run_collapses(geometry, aspects, factors, work_root, threads):
+def run_collapses(geometry, aspects, factors, work_root, threads, channel=None, grain=0.0):
     rows = []
     for a in aspects:
         for f in factors:
             work = os.path.join(work_root, "%s_a%g_dx%g" % (geometry, a, f))
             if geometry == "planar":
-                scene, case = planar_scene(a, f), "granular_collapse"
+                scene, case = planar_scene(a, f, channel, grain), "granular_collapse"
             else:
                 scene, case = axisymmetric_scene(a, f, work), "granular_axisymmetric"
             r = V.run_one(case, scene, work, threads)
@@ -118,6 +148,9 @@ def run_collapses(geometry, aspects, factors, work_root, threads):
             words = r["note"].split()
             height, ref_h = float(words[1]), float(words[3])
             rows.append(dict(geometry=geometry, a=a, dx=scene["domain"]["dx"],
+                             channel=channel[0] if channel and geometry == "planar" else 0.0,
+                             wall_friction=channel[1] if channel and geometry == "planar" else 0.0,
+                             grain=grain if geometry == "planar" else 0.0,
                              runout=r["measured"], runout_ref=r["reference"], runout_err=r["error"],
                              signed=(r["measured"] - r["reference"]) / r["reference"],
                              height=height, height_ref=ref_h,
@@ -231,11 +264,17 @@ def write_markdown(collapse, dam, path, info, elapsed):
              "%s cores. Wall time %.0f s." % (info.get("cpu", "?"), info["cores"], elapsed), ""]
     if collapse:
         lines += ["## Granular collapse against aspect ratio (Mohr-Coulomb, 30 deg)", "",
-                  "| geometry | a | dx (m) | run-out | fit | error | H/L0 | fit | wall s | particles |",
-                  "|---|---|---|---|---|---|---|---|---|---|"]
+                  "Planar channel: the side walls' distance apart in m and their friction "
+                  "(none: frictionless walls, an infinitely wide channel); grain: mu(I)'s "
+                  "grain diameter in m (0: a constant friction).", "",
+                  "| geometry | channel | grain | a | dx (m) | run-out | fit | error | H/L0 | fit "
+                  "| wall s | particles |",
+                  "|---|---|---|---|---|---|---|---|---|---|---|---|"]
         for r in collapse:
-            lines.append("| %s | %g | %g | %.2f | %.2f | %+.1f%% | %.2f | %.2f | %.0f | %d |" % (
-                r["geometry"], r["a"], r["dx"], r["runout"], r["runout_ref"], 100 * r["signed"],
+            chan = "%g m, mu %g" % (r["channel"], r["wall_friction"]) if r["channel"] else "none"
+            lines.append("| %s | %s | %g | %g | %g | %.2f | %.2f | %+.1f%% | %.2f | %.2f | %.0f | %d |" % (
+                r["geometry"], chan, r["grain"], r["a"], r["dx"], r["runout"], r["runout_ref"],
+                100 * r["signed"],
                 r["height"], r["height_ref"], r["wall_s"], r["particles"]))
         lines += ["", "![collapse](collapse_aspect.png)", ""]
     if dam:
@@ -259,7 +298,14 @@ def main():
     ap.add_argument("--results", default=os.path.join(HERE, "results"))
     ap.add_argument("--work", default=os.path.join(V.ROOT, "build", "validation", "experiments"))
     ap.add_argument("--triad", default=V.TRIAD)
+    ap.add_argument("--aspects", default=",".join("%g" % a for a in PLANAR_A))
+    ap.add_argument("--dx-factors", default=None)
+    ap.add_argument("--grain-diameter", type=float, default=0.0)
+    ap.add_argument("--channel-width", type=float, default=0.0)
+    ap.add_argument("--wall-friction", type=float, default=0.4)
     args = ap.parse_args()
+    if args.channel_width < 0 or args.wall_friction < 0 or args.grain_diameter < 0:
+        sys.exit("--channel-width, --wall-friction and --grain-diameter are not negative")
     V.TRIAD = os.path.abspath(args.triad)
     if not os.path.exists(V.TRIAD):
         sys.exit("%s not found: build it first (scripts/build.sh release triad)" % V.TRIAD)
@@ -267,9 +313,14 @@ def main():
     os.makedirs(args.results, exist_ok=True)
     t0 = V.time.time()
     factors = [1] if args.quick else COLLAPSE_DX
+    if args.dx_factors:
+        factors = [float(f) for f in args.dx_factors.split(",")]
+    aspects = [float(a) for a in args.aspects.split(",")]
+    channel = (args.channel_width, args.wall_friction) if args.channel_width > 0 else None
     collapse, dam, curves = [], [], []
     if "collapse" in only:
-        collapse += run_collapses("planar", PLANAR_A, factors, args.work, args.threads)
+        collapse += run_collapses("planar", aspects, factors, args.work, args.threads, channel,
+                                  args.grain_diameter)
     if "axisymmetric" in only:
         collapse += run_collapses("axisymmetric", AXISYMMETRIC_A, factors, args.work, args.threads)
     if "dam_break" in only:
