@@ -119,7 +119,8 @@ int runScene(const RunOptions& options_in) {
                    rate.ran ? "measured here by a probe" : ("fixed rate; " + rate.why_not).c_str());
     for (const std::string& w : extremeWarnings(scene, estimate))
       std::fprintf(stderr, "triad: warning: %s\n", w.c_str());
-    world = buildSceneWorld(scene, mesh_cache);
+    // Split over processes, each builds only its share of the particles.
+    world = buildSceneWorld(scene, mesh_cache, split.share(scene));
     if (split.root()) printMeshWarnings();
     if (const std::string what = split.unsupported(world); !what.empty())
       throw InputError(scene.source_path, "this scene uses " + what +
@@ -199,7 +200,7 @@ int runScene(const RunOptions& options_in) {
   // Checkpoints are tied to the scene file and to the quality preset: a
   // checkpoint of another resolution cannot continue this run.
   const std::string checkpoint_key = checkpointKey(rec.scene_hash, options.quality);
-  rec.particles = world.particleCount();
+  rec.particles = world.whole_particles;
   for (size_t i = 0; i < scene.objects.size(); ++i)
     rec.object_particles.emplace_back(scene.objects[i].name, world.object_particles[i]);
   rec.bodies = world.bodies.size();

@@ -46,11 +46,23 @@ RunSplit::~RunSplit() {
   if (started && !ended) MPI_Finalize();
 }
 
+ParticleShare* RunSplit::share(const SceneDesc& scene) {
+  if (!active()) return nullptr;
+  domain_ = std::make_unique<MpiDomain>(MPI_COMM_WORLD, transferParamsFor(scene));
+  return domain_.get();
+}
+
 void RunSplit::attach(World& world, Solver& solver, bool follow_work) {
   if (!active()) return;
-  domain_ = std::make_unique<MpiDomain>(MPI_COMM_WORLD, solver.transferParams());
+  if (!domain_) domain_ = std::make_unique<MpiDomain>(MPI_COMM_WORLD, solver.transferParams());
   if (follow_work) domain_->followWork();
-  domain_->balance(world.sets, /*whole=*/true);
+  // Built as this process's share, or whole (read from a checkpoint).
+  if (!world.share_index.empty())
+    domain_->adopt(world.sets, std::move(world.share_index));
+  else
+    domain_->balance(world.sets, /*whole=*/true);
+  world.share_index.clear();
+  built_ = double(world.particleCount());
   solver.setDomain(domain_.get());
 }
 
@@ -110,13 +122,14 @@ void RunSplit::record(RunRecord& rec, const World& world) {
       throw std::runtime_error("the solids' states differ between process 0 and process " +
                                std::to_string(r) + " at t = " + std::to_string(world.time) +
                                " s: the split run went wrong (please report it)");
-  // Each process's figures for run.json, six per process.
+  // Each process's figures for run.json, seven per process.
   const std::vector<double> mine{double(world.particleCount()),
                                  domain_->commSeconds(),
                                  domain_->balanceSeconds(),
                                  double(domain_->bytesSent()),
                                  double(domain_->particlesReceived()),
-                                 double(peakResidentBytes())};
+                                 double(peakResidentBytes()),
+                                 built_};
   const std::vector<double> all = allGatherValues(*domain_, mine);
   if (!root()) return;
   auto column = [&](size_t k) {
@@ -131,8 +144,9 @@ void RunSplit::record(RunRecord& rec, const World& world) {
   rec.mpi_balance_seconds = column(2);
   rec.mpi_bytes_sent.assign(bytes.begin(), bytes.end());
   rec.mpi_received.assign(received.begin(), received.end());
-  const std::vector<double> rss = column(5);
+  const std::vector<double> rss = column(5), built = column(6);
   rec.mpi_peak_rss.assign(rss.begin(), rss.end());
+  rec.mpi_built.assign(built.begin(), built.end());
 }
 
 void RunSplit::barrier() {
@@ -155,6 +169,9 @@ RunSplit::RunSplit() {
         "MPI: install libopenmpi-dev (scripts/setup.sh) and rebuild, or run it alone");
 }
 RunSplit::~RunSplit() = default;
+ParticleShare* RunSplit::share(const SceneDesc&) {
+  return nullptr;
+}
 void RunSplit::attach(World&, Solver&, bool) {}
 void RunSplit::rebalance(World&) {}
 std::shared_ptr<const World> RunSplit::gather(const World&) {

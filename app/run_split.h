@@ -10,6 +10,8 @@
 namespace triad {
 
 struct World;
+struct SceneDesc;
+class ParticleShare;
 class Solver;
 struct RunRecord;
 class MpiDomain;
@@ -31,8 +33,12 @@ class RunSplit {
   // Why this world cannot run split (what it uses that the split does not
   // support yet), or "".
   std::string unsupported(const World& world) const;
-  // Splits the world between the processes (each holds the whole world on
-  // entry and keeps its share) and has the solver exchange through them;
+  // What a split run builds of the scene's particles on this process (pass
+  // it to the world's build), or null when the run is not split.
+  ParticleShare* share(const SceneDesc& scene);
+  // Splits the world between the processes and has the solver exchange
+  // through them. The world holds this process's share (built with share())
+  // or the whole world (read from a checkpoint: each keeps its share);
   // `follow_work`: later cuts move towards equal work, not equal counts.
   void attach(World& world, Solver& solver, bool follow_work = false);
   // Moves the split to where the particles are now (each frame).
@@ -53,6 +59,7 @@ class RunSplit {
  private:
   int rank_ = 0, size_ = 1;
   std::unique_ptr<MpiDomain> domain_;
+  double built_ = 0.0;  // particles this process held when the split began
 };
 
 }  // namespace triad

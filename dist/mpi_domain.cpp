@@ -192,15 +192,7 @@ std::vector<std::vector<unsigned char>> MpiDomain::exchange(
   return in;
 }
 
-void MpiDomain::balance(std::vector<ParticleSet>& sets, bool whole) {
-  const double t0 = MPI_Wtime();
-  // This process's own work since the last cut: the time between them less
-  // the time spent in exchanges (waiting for the others included).
-  const double work = (t0 - cut_time_) - (comm_seconds_ - cut_comm_);
-  // Particles per block here, as (key, count) sorted by key.
-  std::vector<uint64_t> keys;
-  for (const ParticleSet& s : sets)
-    for (const Vec3f& x : s.x) keys.push_back(keyOf(x));
+std::vector<uint64_t> MpiDomain::countByKey(std::vector<uint64_t>& keys) {
   std::sort(keys.begin(), keys.end());
   std::vector<uint64_t> pairs;
   for (size_t i = 0; i < keys.size();) {
@@ -210,6 +202,71 @@ void MpiDomain::balance(std::vector<ParticleSet>& sets, bool whole) {
     pairs.push_back(j - i);
     i = j;
   }
+  return pairs;
+}
+
+void MpiDomain::cutAt(const std::vector<uint64_t>& pairs, const std::vector<double>& target) {
+  // Cut before the block where the running count comes nearest each target.
+  std::vector<uint64_t> cut(size_t(size_) + 1, UINT64_MAX);
+  cut[0] = 0;
+  uint64_t below = 0;  // particles in blocks before block b
+  size_t b = 0, blocks = pairs.size() / 2;
+  for (int r = 1; r < size_; ++r) {
+    const double goal = target[size_t(r)];
+    while (b < blocks && double(below + pairs[2 * b + 1]) <= goal) below += pairs[2 * b++ + 1];
+    // Inside block b the count passes the target: cut before or after it.
+    size_t c = b;
+    if (b < blocks && double(below + pairs[2 * b + 1]) - goal < goal - double(below)) c = b + 1;
+    cut[size_t(r)] = c < blocks ? pairs[2 * c] : UINT64_MAX;
+    cut[size_t(r)] = std::max(cut[size_t(r)], cut[size_t(r - 1)]);
+  }
+  cut_ = cut;
+}
+
+void MpiDomain::plan(const std::vector<const std::vector<Vec3f>*>& positions) {
+  // Every process sees every position: the same counts, the same cut as a
+  // split of the whole world, without an exchange.
+  std::vector<uint64_t> keys;
+  for (const std::vector<Vec3f>* object : positions)
+    for (const Vec3f& x : *object) keys.push_back(keyOf(x));
+  const std::vector<uint64_t> pairs = countByKey(keys);
+  uint64_t total = 0;
+  for (size_t i = 1; i < pairs.size(); i += 2) total += pairs[i];
+  std::vector<double> target(size_t(size_) + 1, 0.0);
+  for (int r = 1; r < size_; ++r) target[size_t(r)] = double(total) * r / size_;
+  cutAt(pairs, target);
+  planned_ = true;
+}
+
+bool MpiDomain::keeps(const Vec3f& x) const {
+  return ownerOf(keyOf(x)) == rank_;
+}
+
+void MpiDomain::adopt(std::vector<ParticleSet>& sets, std::vector<std::vector<uint64_t>>&& index) {
+  // The balance at the start, done by the build: the particles on hand are
+  // this process's share, in the order one process would hold them in.
+  if (!planned_ || index.size() != sets.size())
+    throw std::logic_error("MpiDomain::adopt: the world was not built with this share");
+  for (size_t k = 0; k < sets.size(); ++k)
+    if (index[k].size() != sets[k].size())
+      throw std::logic_error("MpiDomain::adopt: a set's index does not match its particles");
+  seq_ = std::move(index);
+  seq_fresh_ = false;
+  bin_order_.clear();
+  cut_time_ = MPI_Wtime();
+  cut_comm_ = comm_seconds_;
+}
+
+void MpiDomain::balance(std::vector<ParticleSet>& sets, bool whole) {
+  const double t0 = MPI_Wtime();
+  // This process's own work since the last cut: the time between them less
+  // the time spent in exchanges (waiting for the others included).
+  const double work = (t0 - cut_time_) - (comm_seconds_ - cut_comm_);
+  // Particles per block here, as (key, count) sorted by key.
+  std::vector<uint64_t> keys;
+  for (const ParticleSet& s : sets)
+    for (const Vec3f& x : s.x) keys.push_back(keyOf(x));
+  std::vector<uint64_t> pairs = countByKey(keys);
   // Every process's, merged: the whole material's blocks in key order.
   if (!whole) {
     const std::vector<uint64_t> all = allGatherValues(*this, pairs);
@@ -249,21 +306,7 @@ void MpiDomain::balance(std::vector<ParticleSet>& sets, bool whole) {
       target[size_t(r)] = std::clamp(before - shift, target[size_t(r - 1)], double(total));
     }
   }
-  // Cut before the block where the running count comes nearest each target.
-  std::vector<uint64_t> cut(size_t(size_) + 1, UINT64_MAX);
-  cut[0] = 0;
-  uint64_t below = 0;  // particles in blocks before block b
-  size_t b = 0, blocks = pairs.size() / 2;
-  for (int r = 1; r < size_; ++r) {
-    const double goal = target[size_t(r)];
-    while (b < blocks && double(below + pairs[2 * b + 1]) <= goal) below += pairs[2 * b++ + 1];
-    // Inside block b the count passes the target: cut before or after it.
-    size_t c = b;
-    if (b < blocks && double(below + pairs[2 * b + 1]) - goal < goal - double(below)) c = b + 1;
-    cut[size_t(r)] = c < blocks ? pairs[2 * c] : UINT64_MAX;
-    cut[size_t(r)] = std::max(cut[size_t(r)], cut[size_t(r - 1)]);
-  }
-  cut_ = cut;
+  cutAt(pairs, target);
   comm_seconds_ += MPI_Wtime() - t0;
   if (!whole) {
     migrate(sets);

@@ -17,10 +17,11 @@
 
 #include "sim/mpm/domain.h"
 #include "sim/mpm/transfer.h"
+#include "sim/world.h"
 
 namespace triad {
 
-class MpiDomain final : public DomainExchange {
+class MpiDomain final : public DomainExchange, public ParticleShare {
  public:
   MpiDomain(MPI_Comm comm, const TransferParams& params);
 
@@ -34,6 +35,13 @@ class MpiDomain final : public DomainExchange {
   // keeps only this process's share without any exchange. Where the cut
   // falls changes no result (the sums keep one order).
   void balance(std::vector<ParticleSet>& sets, bool whole = false);
+  // The first cut, from the positions of every particle the scene makes
+  // (the same on every process, so no exchange), for a build that keeps
+  // only this process's share; then adopt() takes that share and its
+  // places in the whole world (World::share_index) instead of balance().
+  void plan(const std::vector<const std::vector<Vec3f>*>& positions) override;
+  bool keeps(const Vec3f& x) const override;
+  void adopt(std::vector<ParticleSet>& sets, std::vector<std::vector<uint64_t>>&& index);
   // From now on each cut moves towards equal work (each process's time
   // outside exchanges since the last cut) rather than equal particle counts.
   void followWork() { by_work_ = true; }
@@ -67,6 +75,11 @@ class MpiDomain final : public DomainExchange {
 
  private:
   uint64_t keyOf(const Vec3f& x) const;
+  // (key, count) pairs of `keys` (sorted here), in key order.
+  static std::vector<uint64_t> countByKey(std::vector<uint64_t>& keys);
+  // Cuts so that process r's keys start where the running count of `pairs`
+  // comes nearest target[r].
+  void cutAt(const std::vector<uint64_t>& pairs, const std::vector<double>& target);
   int ownerOf(uint64_t key) const;
   // Sends the nodes of blocks send[r] of `per_node` (64 per block) to each
   // process r, and combines what each sent here into blocks receive[r].
@@ -106,6 +119,7 @@ class MpiDomain final : public DomainExchange {
   static constexpr int kExchangeTag = 100;  // and 101: exchange() alternates
   uint64_t round_ = 0;                      // exchanges so far
   bool by_work_ = false;
+  bool planned_ = false;                    // plan() made the first cut
   double cut_time_ = 0.0, cut_comm_ = 0.0;  // when the last cut was made, and comm_seconds_ then
 };
 

@@ -425,6 +425,8 @@ void restoreCheckpoint(Checkpoint&& c, World& world, Solver& solver) {
     to.id = std::move(from.id);
     to.object = std::move(from.object);
   }
+  // Every particle of the checkpoint: a split run takes its share from here.
+  world.share_index.clear();
   for (size_t k = 0; k < c.bodies.size(); ++k) world.bodies[k].state = c.bodies[k].second;
   world.time = c.time;
   // Animated colliders: the pose and its velocities follow from the clock.

@@ -39,7 +39,8 @@ void writeRunRecord(const std::string& path, const RunRecord& rec) {
                 {"rebalance_seconds", rec.mpi_balance_seconds},
                 {"bytes_sent", rec.mpi_bytes_sent},
                 {"particles_received", rec.mpi_received},
-                {"peak_rss_bytes", rec.mpi_peak_rss}};
+                {"peak_rss_bytes", rec.mpi_peak_rss},
+                {"particles_at_start", rec.mpi_built}};
   j["quality"] = {{"preset", rec.quality.empty() ? nlohmann::ordered_json(nullptr)
                                                  : nlohmann::ordered_json(rec.quality)},
                   {"dx", rec.dx},

@@ -74,6 +74,7 @@ struct RunRecord {
   std::vector<double> mpi_comm_seconds, mpi_balance_seconds;
   std::vector<uint64_t> mpi_bytes_sent, mpi_received;
   std::vector<uint64_t> mpi_peak_rss;  // per process (peak_rss_bytes is process 0's)
+  std::vector<uint64_t> mpi_built;     // per process: particles it held when the split began
 };
 
 void writeRunRecord(const std::string& path, const RunRecord& rec);

@@ -288,9 +288,11 @@ MeshFrames loadMeshSequence(const MeshDesc& sequence, int frames) {
   return out;
 }
 
-World buildSceneWorld(const SceneDesc& scene, std::shared_ptr<MeshCache> cache) {
+World buildSceneWorld(const SceneDesc& scene, std::shared_ptr<MeshCache> cache,
+                      ParticleShare* share) {
   if (!cache) cache = std::make_shared<MeshCache>();
-  return buildWorld(scene, makeMeshSampler(cache), makeSolidSampler(cache), loadMeshSequence);
+  return buildWorld(scene, makeMeshSampler(cache), makeSolidSampler(cache), loadMeshSequence,
+                    share);
 }
 
 }  // namespace triad

@@ -105,7 +105,9 @@ SolidSampler makeSolidSampler(std::shared_ptr<MeshCache> cache,
 // frame through loadMesh, each checked against frame 0's topology.
 MeshFrames loadMeshSequence(const MeshDesc& sequence, int frames);
 
-// buildWorld with both samplers over one mesh cache (a new one if null).
-World buildSceneWorld(const SceneDesc& scene, std::shared_ptr<MeshCache> cache = nullptr);
+// buildWorld with both samplers over one mesh cache (a new one if null),
+// keeping only what `share` keeps when it is given.
+World buildSceneWorld(const SceneDesc& scene, std::shared_ptr<MeshCache> cache = nullptr,
+                      ParticleShare* share = nullptr);
 
 }  // namespace triad

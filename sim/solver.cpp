@@ -33,21 +33,28 @@ constexpr double kMinDt = 1e-10;
 
 }  // namespace
 
-Solver::Solver(World& world) : world_(world) {
+TransferParams transferParamsFor(const SceneDesc& scene) {
+  const DomainDesc& domain = scene.domain;
+  TransferParams p;
+  for (int d = 0; d < 3; ++d) {
+    p.shifted_origin[d] = static_cast<float>(domain.min[d] + 0.5 * domain.dx);
+    p.domain_lo[d] = static_cast<float>(domain.min[d]);
+    p.domain_hi[d] = static_cast<float>(domain.max[d]);
+  }
+  p.dx = static_cast<float>(domain.dx);
+  p.inv_dx = 1.0f / p.dx;
+  p.scheme = scene.solver.transfer;
+  p.flip_ratio = static_cast<float>(scene.solver.flip_ratio);
+  return p;
+}
+
+Solver::Solver(World& world) : world_(world), params_(transferParamsFor(world.scene)) {
   const SceneDesc& scene = world.scene;
   const DomainDesc& domain = scene.domain;
-  const float dx = static_cast<float>(domain.dx);
   for (int d = 0; d < 3; ++d) {
-    params_.shifted_origin[d] = static_cast<float>(domain.min[d] + 0.5 * domain.dx);
     walls_.hi[d] = static_cast<int>(std::lround((domain.max[d] - domain.min[d]) / domain.dx));
     gravity_[d] = static_cast<float>(scene.gravity[d]);
-    params_.domain_lo[d] = static_cast<float>(domain.min[d]);
-    params_.domain_hi[d] = static_cast<float>(domain.max[d]);
   }
-  params_.dx = dx;
-  params_.inv_dx = 1.0f / dx;
-  params_.scheme = scene.solver.transfer;
-  params_.flip_ratio = static_cast<float>(scene.solver.flip_ratio);
   flip_ = scene.solver.transfer == TransferScheme::Flip;
   walls_.type = domain.boundary.type;
   walls_.friction = static_cast<float>(domain.boundary.friction);
@@ -68,6 +75,18 @@ Solver::Solver(World& world) : world_(world) {
     contact_.iterations = scene.solver.contact_iterations;
   }
   resetLoads();
+}
+
+void Solver::setDomain(DomainExchange* domain) {
+  domain_ = domain;
+  if (coupling_) coupling_->setDomain(domain);
+  // Each process built only its share: the first step's speed is every
+  // share's largest.
+  if (domain_) {
+    std::vector<double> m{double(max_speed_)};
+    domain_->maxOverProcesses(m);
+    max_speed_ = float(m[0]);
+  }
 }
 
 void Solver::resetLoads() { loads_.assign(world_.bodies.size(), BodyLoad{}); }

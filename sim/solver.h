@@ -50,6 +50,9 @@ struct SolverState {
   SleepState sleep;                  // how long each block has been still
 };
 
+// The transfers' constants for a scene's grid (the dt is set each step).
+TransferParams transferParamsFor(const SceneDesc& scene);
+
 class Solver {
  public:
   explicit Solver(World& world);
@@ -74,10 +77,7 @@ class Solver {
   // several processes (sim/mpm/domain.h); the world must already hold only
   // the particles this process owns. Solids and sources are whole on every
   // process; scenes with sleep do not run split.
-  void setDomain(DomainExchange* domain) {
-    domain_ = domain;
-    if (coupling_) coupling_->setDomain(domain);
-  }
+  void setDomain(DomainExchange* domain);
   const TransferParams& transferParams() const { return params_; }
 
   SolverState state() const {

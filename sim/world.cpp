@@ -1,5 +1,6 @@
 #include "sim/world.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -194,7 +195,8 @@ size_t World::particleBytes() const {
 }
 
 World buildWorld(const SceneDesc& scene, const MeshSampler& mesh_sampler,
-                 const SolidSampler& solid_sampler, const SequenceLoader& sequence_loader) {
+                 const SolidSampler& solid_sampler, const SequenceLoader& sequence_loader,
+                 ParticleShare* share) {
   World world;
   world.scene = scene;
   world.object_particles.assign(scene.objects.size(), 0);
@@ -212,6 +214,16 @@ World buildWorld(const SceneDesc& scene, const MeshSampler& mesh_sampler,
   const double volume = std::pow(domain.dx, 3) / ppc;
   std::map<int, size_t> set_of_material;
   uint32_t next_id = 0;
+  // Each MPM object's positions, built into particles once every object is
+  // sampled: a share needs all of them to decide which it keeps.
+  struct Sampled {
+    size_t set;
+    std::vector<Vec3f> points;
+    Vec3f vel;
+    uint32_t first_id;
+    uint16_t object;
+  };
+  std::vector<Sampled> sampled;
   for (size_t i = 0; i < scene.objects.size(); ++i) {
     const ObjectDesc& obj = scene.objects[i];
     if (obj.kind == ObjectKind::Elastic) {
@@ -256,7 +268,6 @@ World buildWorld(const SceneDesc& scene, const MeshSampler& mesh_sampler,
       set.mass = static_cast<float>(volume * m.density);
       world.sets.push_back(std::move(set));
     }
-    ParticleSet& set = world.sets[it->second];
     if (obj.emit) {
       // A source holds no particles before it starts: its points are sites.
       const Vec3d pivot = shapeCentroid(obj.shape, points);
@@ -265,15 +276,58 @@ World buildWorld(const SceneDesc& scene, const MeshSampler& mesh_sampler,
       continue;
     }
     const Vec3f vel(float(obj.velocity[0]), float(obj.velocity[1]), float(obj.velocity[2]));
-    // Exact capacity: grown by doubling, the arrays held a fifth more than
-    // the particles (21 bytes per particle on the 216k jelly cube).
-    set.reserve(set.size() + points.size());
-    for (const Vec3f& p : points) set.push(p, vel, next_id++, static_cast<uint16_t>(i));
     world.object_particles[i] = points.size();
+    sampled.push_back({it->second, std::move(points), vel, next_id, static_cast<uint16_t>(i)});
+    next_id += uint32_t(sampled.back().points.size());
   }
   world.next_id = next_id;
-  // Sources that start at once are full in the first frame.
-  emitFromSources(world.sources, world.sets, domain, 0.0, world.next_id);
+
+  // The share, from every position; then only what it keeps is built.
+  if (share) {
+    std::vector<const std::vector<Vec3f>*> positions;
+    for (const Sampled& o : sampled) positions.push_back(&o.points);
+    share->plan(positions);
+    world.share_index.assign(world.sets.size(), {});
+  }
+  std::vector<uint8_t> kept;
+  std::vector<size_t> kept_count(world.sets.size(), 0);
+  for (const Sampled& o : sampled) {
+    kept.assign(o.points.size(), 1);
+    if (share)
+      for (size_t j = 0; j < o.points.size(); ++j) kept[j] = share->keeps(o.points[j]);
+    kept_count[o.set] += size_t(std::count(kept.begin(), kept.end(), uint8_t(1)));
+  }
+  // Exact capacity: grown by doubling, the arrays held a fifth more than
+  // the particles (21 bytes per particle on the 216k jelly cube).
+  for (size_t k = 0; k < world.sets.size(); ++k) world.sets[k].reserve(kept_count[k]);
+  std::vector<uint64_t> whole_count(world.sets.size(), 0);
+  for (Sampled& o : sampled) {
+    ParticleSet& set = world.sets[o.set];
+    for (size_t j = 0; j < o.points.size(); ++j, ++whole_count[o.set]) {
+      if (share && !share->keeps(o.points[j])) continue;
+      set.push(o.points[j], o.vel, o.first_id + uint32_t(j), o.object);
+      if (share) world.share_index[o.set].push_back(whole_count[o.set]);
+    }
+    world.whole_particles += o.points.size();
+    o.points = std::vector<Vec3f>();  // given back object by object
+  }
+
+  // Sources that start at once are full in the first frame; a share keeps
+  // its own of their particles too.
+  std::vector<size_t> before(world.sets.size());
+  for (size_t k = 0; k < world.sets.size(); ++k) before[k] = world.sets[k].size();
+  world.whole_particles += emitFromSources(world.sources, world.sets, domain, 0.0, world.next_id);
+  if (share) {
+    for (size_t k = 0; k < world.sets.size(); ++k) {
+      ParticleSet& set = world.sets[k];
+      std::vector<uint8_t> gone(set.size(), 0);
+      for (size_t i = before[k]; i < set.size(); ++i) {
+        gone[i] = !share->keeps(set.x[i]);
+        if (!gone[i]) world.share_index[k].push_back(whole_count[k] + (i - before[k]));
+      }
+      set.removeFlagged(gone);
+    }
+  }
   return world;
 }
 

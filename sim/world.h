@@ -24,6 +24,11 @@ struct World {
   std::vector<Sink> sinks;               // sink objects, in scene order
   std::vector<size_t> object_particles;  // particle (or collision sample) count per scene object at t = 0
   uint32_t next_id = 0;                  // the id the next particle made takes
+  // Built with a ParticleShare: per set, each particle's index in the set
+  // the whole world would hold (the order one process holds them in), and
+  // the whole world's particle count. Empty when the world is whole.
+  std::vector<std::vector<uint64_t>> share_index;
+  size_t whole_particles = 0;
   double time = 0.0;                     // simulated time, s
   int64_t steps = 0;                     // substeps taken
 
@@ -31,14 +36,27 @@ struct World {
   size_t particleBytes() const;
 };
 
+// Under a run split over processes: which of the particles the scene makes
+// at the start this process builds, so that no process holds the whole
+// world's particles at once (dist/ provides one).
+class ParticleShare {
+ public:
+  virtual ~ParticleShare() = default;
+  // Every MPM object's particle positions, in scene order (sources' first
+  // particles excluded), before any particle is built: fixes the share.
+  virtual void plan(const std::vector<const std::vector<Vec3f>*>& positions) = 0;
+  virtual bool keeps(const Vec3f& x) const = 0;
+};
+
 // Sample every object and group particles by material. Throws InputError
 // (naming the object's key path) for what the scene asks but cannot be built.
 // Mesh shapes are sampled through `mesh_sampler` (import/ provides one).
 // Rigid objects get their collision particles and surface from
 // `solid_sampler` (import/ provides one for every shape).
-// Mesh-sequence colliders are read through `sequence_loader`.
+// Mesh-sequence colliders are read through `sequence_loader`. With `share`,
+// only the particles it keeps are built (and `share_index` says which).
 World buildWorld(const SceneDesc& scene, const MeshSampler& mesh_sampler = {},
-                 const SolidSampler& solid_sampler = {},
-                 const SequenceLoader& sequence_loader = {});
+                 const SolidSampler& solid_sampler = {}, const SequenceLoader& sequence_loader = {},
+                 ParticleShare* share = nullptr);
 
 }  // namespace triad

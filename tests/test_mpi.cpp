@@ -204,6 +204,55 @@ TEST_F(Mpi, TwoAndThreeProcessesAgreeWithOne) {
   }
 }
 
+// No process builds the whole world: each makes only its share of the
+// particles (their positions alone are made whole, 12 bytes each), and the
+// run is the same bytes as when each built everything and kept its share.
+TEST_F(Mpi, EachProcessBuildsOnlyItsShare) {
+  const fs::path dir = test::tempDir("share");
+  auto scene = [&](const char* name, std::array<double, 3> hi) {
+    json j = test::baseScene(name, {1.0, 1.0, 1.0}, 0.01);
+    j["frames"] = {{"count", 1}, {"fps", 2000}};
+    j["materials"] = {{"jelly", jellyMaterial()}};
+    j["objects"] = json::array({{{"name", "cube"},
+                                 {"kind", "mpm"},
+                                 {"material", "jelly"},
+                                 {"shape", test::box({0.25, 0.1, 0.25}, hi)}}});
+    j["output"] = {{"ply", false}, {"vdb", false}, {"png", false}};
+    return test::writeScene(dir, j, std::string(name) + ".json");
+  };
+  // 400,000 particles of 102 bytes (39 MiB in all), and a scene of 1,000
+  // for the memory every process has without particles.
+  const std::string big = scene("share_big", {0.65, 0.35, 0.75});
+  const std::string tiny = scene("share_tiny", {0.3, 0.15, 0.3});
+  const int n = 4;
+  // Small gather messages, so that a process's copy of its share for them
+  // does not hide what the build holds.
+  const std::string launch = "TRIAD_MPI_GATHER_CHUNK=1048576 " + mpirun(n);
+  const test::CliResult r0 = run(dir, tiny, dir / "tiny", launch);
+  ASSERT_EQ(r0.status, 0) << r0.err;
+  const test::CliResult r = run(dir, big, dir / "big", launch);
+  ASSERT_EQ(r.status, 0) << r.err;
+  const json base = runJson(dir / "tiny")["mpi"], rj = runJson(dir / "big");
+  const double total = rj["particles"]["total"].get<double>();
+  ASSERT_EQ(total, 400000.0);
+  // Each process held its share when the split began, and together all.
+  double sum = 0.0;
+  for (const json& c : rj["mpi"]["particles_at_start"]) {
+    EXPECT_NEAR(c.get<double>(), total / n, 0.2 * total / n);
+    sum += c.get<double>();
+  }
+  EXPECT_EQ(sum, total);
+  // Processes 1..3 never gather: their peak above a particle-less run's
+  // stays well under the whole world's particles (measured 0.44 of them;
+  // building the whole world and keeping a share, 1.16).
+  const double whole_bytes = total * 102.0;
+  for (int p = 1; p < n; ++p) {
+    const double over = rj["mpi"]["peak_rss_bytes"][size_t(p)].get<double>() -
+                        base["peak_rss_bytes"][size_t(p)].get<double>();
+    EXPECT_LT(over, 0.7 * whole_bytes) << "process " << p;
+  }
+}
+
 // For a fixed number of processes the bytes do not depend on the threads.
 TEST_F(Mpi, SameBytesForOneAndTwoThreadsPerProcess) {
   const fs::path dir = test::tempDir("threads");
