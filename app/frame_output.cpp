@@ -413,12 +413,12 @@ std::string checkpointKey(const std::string& scene_hash, const std::string& qual
 
 std::optional<ResumePoint> resumeFromCheckpoint(const SceneDesc& scene, const std::string& out_dir,
                                                 const std::string& key, World& world,
-                                                Solver& solver) {
+                                                Solver& solver, ParticleShare* share) {
   const auto [scene_hash, quality] = splitCheckpointKey(key);
   for (const auto& [f, path] : listCheckpoints(checkpointDir(out_dir))) {
     try {
       // Read and verify the file; a damaged one is passed over.
-      Checkpoint ckpt = readCheckpoint(path);
+      Checkpoint ckpt = readCheckpoint(path, share);
       // A checkpoint of another scene file, or of another quality preset, is
       // refused, not passed over.
       const auto [ckpt_hash, ckpt_quality] = splitCheckpointKey(ckpt.scene_hash);
@@ -437,9 +437,8 @@ std::optional<ResumePoint> resumeFromCheckpoint(const SceneDesc& scene, const st
                               std::to_string(scene.frames.count));
       // The frame's cache files must be complete too.
       BodyLogs logs;
-      size_t particles = 0;
-      for (const ParticleSet& set : ckpt.sets) particles += set.size();
-      const std::string why = checkFrameCaches(scene, out_dir, ckpt.frame, world, particles, logs);
+      const std::string why =
+          checkFrameCaches(scene, out_dir, ckpt.frame, world, ckpt.whole_particles, logs);
       if (!why.empty()) throw CheckpointError("its frame's cache is incomplete: " + why);
       ResumePoint rp{ckpt.frame, path, ckpt.record, std::move(logs)};
       restoreCheckpoint(std::move(ckpt), world, solver);

@@ -103,9 +103,10 @@ std::string checkpointKey(const std::string& scene_hash, const std::string& qual
 // if there is none. Checkpoints passed over are reported on stderr. Throws
 // InputError (exit status 2) when that checkpoint was written for a
 // different scene file or under a different --quality (`key` is
-// checkpointKey's).
+// checkpointKey's). With `share` (a split run), only this process's share
+// of the checkpoint's particles is read.
 std::optional<ResumePoint> resumeFromCheckpoint(const SceneDesc& scene, const std::string& out_dir,
                                                 const std::string& key, World& world,
-                                                Solver& solver);
+                                                Solver& solver, ParticleShare* share = nullptr);
 
 }  // namespace triad

@@ -229,7 +229,8 @@ int runScene(const RunOptions& options_in) {
     }
     split.barrier();  // the others read the folder only once it is tidied
     if (options.resume) {
-      if (auto rp = resumeFromCheckpoint(scene, out_dir, checkpoint_key, world, solver)) {
+      if (auto rp = resumeFromCheckpoint(scene, out_dir, checkpoint_key, world, solver,
+                                         split.share(scene))) {
         start_frame = resumed_from = rp->frame;
         before = rp->record;
         body_logs = std::move(rp->logs);

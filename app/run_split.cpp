@@ -48,7 +48,7 @@ RunSplit::~RunSplit() {
 
 ParticleShare* RunSplit::share(const SceneDesc& scene) {
   if (!active()) return nullptr;
-  domain_ = std::make_unique<MpiDomain>(MPI_COMM_WORLD, transferParamsFor(scene));
+  if (!domain_) domain_ = std::make_unique<MpiDomain>(MPI_COMM_WORLD, transferParamsFor(scene));
   return domain_.get();
 }
 

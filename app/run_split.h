@@ -33,12 +33,13 @@ class RunSplit {
   // Why this world cannot run split (what it uses that the split does not
   // support yet), or "".
   std::string unsupported(const World& world) const;
-  // What a split run builds of the scene's particles on this process (pass
-  // it to the world's build), or null when the run is not split.
+  // What a split run builds (or reads from a checkpoint) of the particles
+  // on this process: pass it to the world's build and the resume. Null when
+  // the run is not split.
   ParticleShare* share(const SceneDesc& scene);
   // Splits the world between the processes and has the solver exchange
-  // through them. The world holds this process's share (built with share())
-  // or the whole world (read from a checkpoint: each keeps its share);
+  // through them. The world holds this process's share (built or resumed
+  // with share()) or the whole world (each process then keeps its share);
   // `follow_work`: later cuts move towards equal work, not equal counts.
   void attach(World& world, Solver& solver, bool follow_work = false);
   // Moves the split to where the particles are now (each frame).

@@ -164,14 +164,18 @@ class Writer {
 };
 
 // Reads from a verified in-memory file, never past its payload.
+// Reads the payload in order straight from the file, one array (or one
+// chunk of an array read in part) at a time, checking every length against
+// what is left of the payload.
 class Reader {
  public:
-  Reader(const char* p, size_t n) : p_(p), end_(p + n) {}
+  Reader(std::istream& in, uint64_t n) : in_(in), left_(n) {}
   void bytes(void* dst, size_t n) {
-    if (size_t(end_ - p_) < n) throw CheckpointError("payload shorter than its contents");
+    if (left_ < n) throw CheckpointError("payload shorter than its contents");
     if (n == 0) return;  // an empty array may have a null data pointer
-    std::memcpy(dst, p_, n);
-    p_ += n;
+    if (!in_.read(static_cast<char*>(dst), std::streamsize(n)))
+      throw CheckpointError("read failed");
+    left_ -= n;
   }
   template <class T>
   T pod() {
@@ -181,16 +185,49 @@ class Reader {
   }
   template <class T>
   void array(std::vector<T>& a, size_t n) {
-    if (n > size_t(end_ - p_) / sizeof(T)) throw CheckpointError("payload shorter than its arrays");
+    if (n > left_ / sizeof(T)) throw CheckpointError("payload shorter than its arrays");
     a.resize(n);
     bytes(a.data(), n * sizeof(T));
   }
-  bool atEnd() const { return p_ == end_; }
+  // Of an array of n, only the `count` entries `keep` marks.
+  template <class T>
+  void kept(std::vector<T>& a, size_t n, const std::vector<uint8_t>& keep, size_t count) {
+    if (n > left_ / sizeof(T)) throw CheckpointError("payload shorter than its arrays");
+    constexpr size_t kChunk = size_t(1) << 16;
+    a.clear();
+    a.reserve(count);
+    std::vector<T> chunk;
+    for (size_t i = 0; i < n; i += kChunk) {
+      chunk.resize(std::min(kChunk, n - i));
+      bytes(chunk.data(), chunk.size() * sizeof(T));
+      for (size_t j = 0; j < chunk.size(); ++j)
+        if (keep[i + j]) a.push_back(chunk[j]);
+    }
+  }
+  void skip(uint64_t n) {
+    if (left_ < n) throw CheckpointError("payload shorter than its arrays");
+    if (!in_.seekg(std::streamoff(n), std::ios::cur)) throw CheckpointError("read failed");
+    left_ -= n;
+  }
+  // Where the reader stands, to come back to.
+  std::pair<std::streampos, uint64_t> mark() { return {in_.tellg(), left_}; }
+  void seek(const std::pair<std::streampos, uint64_t>& m) {
+    if (!in_.seekg(m.first)) throw CheckpointError("read failed");
+    left_ = m.second;
+  }
+  uint64_t left() const { return left_; }
+  bool atEnd() const { return left_ == 0; }
 
  private:
-  const char* p_;
-  const char* end_;
+  std::istream& in_;
+  uint64_t left_;
 };
+
+// Bytes of a set's arrays after its positions.
+uint64_t bytesAfterPositions(uint64_t n, bool has_F, bool has_J) {
+  return n * (sizeof(Vec3f) + sizeof(Mat3f) + (has_F ? sizeof(Mat3f) : 0) +
+              (has_J ? sizeof(float) : 0) + sizeof(uint32_t) + sizeof(uint16_t));
+}
 
 }  // namespace
 
@@ -269,31 +306,43 @@ void writeCheckpoint(const std::string& path, int frame, const std::string& scen
   });
 }
 
-Checkpoint readCheckpoint(const std::string& path) {
-  // The whole file, checked before anything is parsed.
+Checkpoint readCheckpoint(const std::string& path, ParticleShare* share) {
+  // The file is checked whole (size, marks, checksum) before anything is
+  // parsed, reading it a MiB at a time: a process never holds the file.
   std::ifstream in(path, std::ios::binary);
   if (!in) throw CheckpointError("cannot open");
-  const std::vector<char> file((std::istreambuf_iterator<char>(in)),
-                               std::istreambuf_iterator<char>());
-  if (file.size() < kHeaderBytes + kTrailerBytes)
-    throw CheckpointError("truncated (" + std::to_string(file.size()) + " bytes)");
+  in.seekg(0, std::ios::end);
+  const uint64_t size = uint64_t(in.tellg());
+  in.seekg(0);
+  if (!in || size < kHeaderBytes + kTrailerBytes)
+    throw CheckpointError("truncated (" + std::to_string(size) + " bytes)");
   Header h;
-  std::memcpy(&h, file.data(), kHeaderBytes);
+  in.read(reinterpret_cast<char*>(&h), kHeaderBytes);
+  if (!in) throw CheckpointError("read failed");
   if (std::memcmp(h.magic, kMagic, 8) != 0) throw CheckpointError("not a triad checkpoint");
   if (h.version != kCheckpointVersion)
     throw CheckpointError("format version " + std::to_string(h.version) + ", expected " +
                           std::to_string(kCheckpointVersion));
-  if (h.header_bytes != kHeaderBytes || h.payload_bytes > file.size() ||
-      file.size() != kHeaderBytes + h.payload_bytes + kTrailerBytes)
-    throw CheckpointError("truncated or padded: " + std::to_string(file.size()) +
-                          " bytes, header says " +
+  if (h.header_bytes != kHeaderBytes || h.payload_bytes > size ||
+      size != kHeaderBytes + h.payload_bytes + kTrailerBytes)
+    throw CheckpointError("truncated or padded: " + std::to_string(size) + " bytes, header says " +
                           std::to_string(kHeaderBytes + h.payload_bytes + kTrailerBytes));
-  const char* trailer = file.data() + kHeaderBytes + h.payload_bytes;
+  Checksum sum;
+  sum.update(&h, kHeaderBytes);
+  {
+    std::vector<char> buffer(size_t(1) << 20);
+    for (uint64_t left = h.payload_bytes; left > 0;) {
+      const size_t m = size_t(std::min<uint64_t>(left, buffer.size()));
+      if (!in.read(buffer.data(), std::streamsize(m))) throw CheckpointError("read failed");
+      sum.update(buffer.data(), m);
+      left -= m;
+    }
+  }
+  char trailer[kTrailerBytes];
+  if (!in.read(trailer, kTrailerBytes)) throw CheckpointError("read failed");
   uint64_t stored;
   std::memcpy(&stored, trailer, 8);
   if (std::memcmp(trailer + 8, kEndMagic, 8) != 0) throw CheckpointError("no end marker");
-  Checksum sum;
-  sum.update(file.data(), kHeaderBytes + h.payload_bytes);
   if (sum.value() != stored) throw CheckpointError("checksum mismatch (corrupt file)");
 
   // Parse the payload.
@@ -301,7 +350,8 @@ Checkpoint readCheckpoint(const std::string& path) {
   c.frame = h.frame;
   c.time = h.time;
   c.steps = h.steps;
-  Reader r(file.data() + kHeaderBytes, h.payload_bytes);
+  in.seekg(kHeaderBytes);
+  Reader r(in, h.payload_bytes);
   const uint32_t hash_len = r.pod<uint32_t>();
   if (hash_len > 256) throw CheckpointError("scene hash too long");
   c.scene_hash.resize(hash_len);
@@ -321,6 +371,24 @@ Checkpoint readCheckpoint(const std::string& path) {
   const uint64_t sleep_bodies = r.pod<uint64_t>();
   if (sleep_bodies > h.payload_bytes / 8) throw CheckpointError("sleep body count too large");
   r.array(c.solver.sleep.body_still, size_t(sleep_bodies));
+  // With a share, every set's positions first: the share is cut from
+  // them, and then only its particles' other arrays are kept.
+  std::vector<std::vector<Vec3f>> positions;
+  if (share) {
+    const auto sets_at = r.mark();
+    positions.resize(h.sets);
+    std::vector<const std::vector<Vec3f>*> all;
+    for (uint32_t k = 0; k < h.sets; ++k) {
+      const SetHeader sh = r.pod<SetHeader>();
+      r.array(positions[k], size_t(sh.n));
+      if (sh.n > r.left() / sizeof(Mat3f)) throw CheckpointError("payload shorter than its arrays");
+      r.skip(bytesAfterPositions(sh.n, sh.has_F, sh.has_J));
+      all.push_back(&positions[k]);
+    }
+    share->plan(all);
+    r.seek(sets_at);
+    c.share_index.assign(h.sets, {});
+  }
   for (uint32_t k = 0; k < h.sets; ++k) {
     const SetHeader sh = r.pod<SetHeader>();
     ParticleSet s;
@@ -328,13 +396,33 @@ Checkpoint readCheckpoint(const std::string& path) {
     s.mass = sh.mass;
     s.volume = sh.volume;
     const size_t n = size_t(sh.n);
-    r.array(s.x, n);
-    r.array(s.v, n);
-    r.array(s.C, n);
-    r.array(s.F, sh.has_F ? n : 0);
-    r.array(s.J, sh.has_J ? n : 0);
-    r.array(s.id, n);
-    r.array(s.object, n);
+    c.whole_particles += n;
+    c.has_F.push_back(sh.has_F);
+    c.has_J.push_back(sh.has_J);
+    if (!share) {
+      r.array(s.x, n);
+      r.array(s.v, n);
+      r.array(s.C, n);
+      r.array(s.F, sh.has_F ? n : 0);
+      r.array(s.J, sh.has_J ? n : 0);
+      r.array(s.id, n);
+      r.array(s.object, n);
+    } else {
+      std::vector<uint8_t> keep(n, 0);
+      std::vector<uint64_t>& index = c.share_index[k];
+      for (size_t i = 0; i < n; ++i)
+        if ((keep[i] = share->keeps(positions[k][i]))) index.push_back(i);
+      s.x.reserve(index.size());
+      for (uint64_t i : index) s.x.push_back(positions[k][size_t(i)]);
+      positions[k] = std::vector<Vec3f>();
+      r.skip(uint64_t(n) * sizeof(Vec3f));
+      r.kept(s.v, n, keep, index.size());
+      r.kept(s.C, n, keep, index.size());
+      r.kept(s.F, sh.has_F ? n : 0, keep, index.size());
+      r.kept(s.J, sh.has_J ? n : 0, keep, index.size());
+      r.kept(s.id, n, keep, index.size());
+      r.kept(s.object, n, keep, index.size());
+    }
     c.sets.push_back(std::move(s));
   }
   const uint32_t bodies = r.pod<uint32_t>();
@@ -374,8 +462,10 @@ void restoreCheckpoint(Checkpoint&& c, World& world, Solver& solver) {
   for (size_t k = 0; k < c.sets.size(); ++k) {
     const ParticleSet& from = c.sets[k];
     const ParticleSet& to = world.sets[k];
+    const bool has_F = k < c.has_F.size() ? c.has_F[k] != 0 : !from.F.empty();
+    const bool has_J = k < c.has_J.size() ? c.has_J[k] != 0 : !from.J.empty();
     if (from.material != to.material || from.mass != to.mass || from.volume != to.volume ||
-        from.F.empty() != !to.usesF() || from.J.empty() != !to.usesJ())
+        has_F != to.usesF() || has_J != to.usesJ())
       throw CheckpointError("particle set " + std::to_string(k) +
                             " does not match the scene's (material, mass, volume or state)");
     for (uint16_t o : from.object)
@@ -425,8 +515,10 @@ void restoreCheckpoint(Checkpoint&& c, World& world, Solver& solver) {
     to.id = std::move(from.id);
     to.object = std::move(from.object);
   }
-  // Every particle of the checkpoint: a split run takes its share from here.
-  world.share_index.clear();
+  // A split run's share of the checkpoint, or every particle of it (each
+  // process then keeps its share when the split begins).
+  world.share_index = std::move(c.share_index);
+  world.whole_particles = c.whole_particles;
   for (size_t k = 0; k < c.bodies.size(); ++k) world.bodies[k].state = c.bodies[k].second;
   world.time = c.time;
   // Animated colliders: the pose and its velocities follow from the clock.

@@ -57,6 +57,11 @@ struct Checkpoint {
   SolverState solver;
   StepRecord record;  // the solver's step statistics up to this frame
   std::vector<ParticleSet> sets;  // arrays, material index, mass, volume (no model)
+  // Per set, whether the file holds F and J (a share may hold no particle).
+  std::vector<uint8_t> has_F, has_J;
+  // Read with a share: per set, the index in the file of each particle kept.
+  std::vector<std::vector<uint64_t>> share_index;
+  size_t whole_particles = 0;                              // particles in the file
   std::vector<std::pair<std::string, RigidState>> bodies;  // name and state, world order
   struct Elastic {
     std::string name;
@@ -80,8 +85,9 @@ void writeCheckpoint(const std::string& path, int frame, const std::string& scen
                      const World& world, const SolverState& solver, const StepRecord& record);
 
 // Reads and verifies (size, magic, version, checksum, array sizes) a
-// checkpoint. Throws CheckpointError saying what is wrong.
-Checkpoint readCheckpoint(const std::string& path);
+// checkpoint. Throws CheckpointError saying what is wrong. With `share`,
+// only the particles it keeps are read (their places in `share_index`).
+Checkpoint readCheckpoint(const std::string& path, ParticleShare* share = nullptr);
 
 // Moves a checkpoint's state into `world` (built from the same scene) and
 // `solver`. Throws CheckpointError, changing nothing, if the particle sets do
