@@ -277,39 +277,44 @@ World buildWorld(const SceneDesc& scene, const MeshSampler& mesh_sampler,
     }
     const Vec3f vel(float(obj.velocity[0]), float(obj.velocity[1]), float(obj.velocity[2]));
     world.object_particles[i] = points.size();
-    sampled.push_back({it->second, std::move(points), vel, next_id, static_cast<uint16_t>(i)});
-    next_id += uint32_t(sampled.back().points.size());
+    world.whole_particles += points.size();
+    if (share) {
+      sampled.push_back({it->second, std::move(points), vel, next_id, static_cast<uint16_t>(i)});
+      next_id += uint32_t(sampled.back().points.size());
+      continue;
+    }
+    // Exact capacity: grown by doubling, the arrays held a fifth more than
+    // the particles (21 bytes per particle on the 216k jelly cube).
+    ParticleSet& set = world.sets[it->second];
+    set.reserve(set.size() + points.size());
+    for (const Vec3f& p : points) set.push(p, vel, next_id++, static_cast<uint16_t>(i));
   }
   world.next_id = next_id;
 
-  // The share, from every position; then only what it keeps is built.
+  // A share is cut from every position; then only what it keeps is built,
+  // each particle with its place in the whole world's set.
+  std::vector<uint64_t> whole_count(world.sets.size(), 0);
   if (share) {
     std::vector<const std::vector<Vec3f>*> positions;
     for (const Sampled& o : sampled) positions.push_back(&o.points);
     share->plan(positions);
     world.share_index.assign(world.sets.size(), {});
-  }
-  std::vector<uint8_t> kept;
-  std::vector<size_t> kept_count(world.sets.size(), 0);
-  for (const Sampled& o : sampled) {
-    kept.assign(o.points.size(), 1);
-    if (share)
-      for (size_t j = 0; j < o.points.size(); ++j) kept[j] = share->keeps(o.points[j]);
-    kept_count[o.set] += size_t(std::count(kept.begin(), kept.end(), uint8_t(1)));
-  }
-  // Exact capacity: grown by doubling, the arrays held a fifth more than
-  // the particles (21 bytes per particle on the 216k jelly cube).
-  for (size_t k = 0; k < world.sets.size(); ++k) world.sets[k].reserve(kept_count[k]);
-  std::vector<uint64_t> whole_count(world.sets.size(), 0);
-  for (Sampled& o : sampled) {
-    ParticleSet& set = world.sets[o.set];
-    for (size_t j = 0; j < o.points.size(); ++j, ++whole_count[o.set]) {
-      if (share && !share->keeps(o.points[j])) continue;
-      set.push(o.points[j], o.vel, o.first_id + uint32_t(j), o.object);
-      if (share) world.share_index[o.set].push_back(whole_count[o.set]);
+    std::vector<size_t> kept(world.sets.size(), 0);
+    for (const Sampled& o : sampled)
+      for (const Vec3f& x : o.points) kept[o.set] += share->keeps(x);
+    for (size_t k = 0; k < world.sets.size(); ++k) {
+      world.sets[k].reserve(kept[k]);
+      world.share_index[k].reserve(kept[k]);
     }
-    world.whole_particles += o.points.size();
-    o.points = std::vector<Vec3f>();  // given back object by object
+    for (Sampled& o : sampled) {
+      ParticleSet& set = world.sets[o.set];
+      for (size_t j = 0; j < o.points.size(); ++j, ++whole_count[o.set]) {
+        if (!share->keeps(o.points[j])) continue;
+        set.push(o.points[j], o.vel, o.first_id + uint32_t(j), o.object);
+        world.share_index[o.set].push_back(whole_count[o.set]);
+      }
+      o.points = std::vector<Vec3f>();  // given back object by object
+    }
   }
 
   // Sources that start at once are full in the first frame; a share keeps
