@@ -291,46 +291,47 @@ World buildWorld(const SceneDesc& scene, const MeshSampler& mesh_sampler,
   }
   world.next_id = next_id;
 
-  // A share is cut from every position; then only what it keeps is built,
-  // each particle with its place in the whole world's set.
-  std::vector<uint64_t> whole_count(world.sets.size(), 0);
-  if (share) {
-    std::vector<const std::vector<Vec3f>*> positions;
-    for (const Sampled& o : sampled) positions.push_back(&o.points);
-    share->plan(positions);
-    world.share_index.assign(world.sets.size(), {});
-    std::vector<size_t> kept(world.sets.size(), 0);
-    for (const Sampled& o : sampled)
-      for (const Vec3f& x : o.points) kept[o.set] += share->keeps(x);
-    for (size_t k = 0; k < world.sets.size(); ++k) {
-      world.sets[k].reserve(kept[k]);
-      world.share_index[k].reserve(kept[k]);
-    }
-    for (Sampled& o : sampled) {
-      ParticleSet& set = world.sets[o.set];
-      for (size_t j = 0; j < o.points.size(); ++j, ++whole_count[o.set]) {
-        if (!share->keeps(o.points[j])) continue;
-        set.push(o.points[j], o.vel, o.first_id + uint32_t(j), o.object);
-        world.share_index[o.set].push_back(whole_count[o.set]);
-      }
-      o.points = std::vector<Vec3f>();  // given back object by object
-    }
+  // Sources that start at once are full in the first frame.
+  if (!share) {
+    world.whole_particles += emitFromSources(world.sources, world.sets, domain, 0.0, world.next_id);
+    return world;
   }
-
-  // Sources that start at once are full in the first frame; a share keeps
-  // its own of their particles too.
-  std::vector<size_t> before(world.sets.size());
-  for (size_t k = 0; k < world.sets.size(); ++k) before[k] = world.sets[k].size();
-  world.whole_particles += emitFromSources(world.sources, world.sets, domain, 0.0, world.next_id);
-  if (share) {
-    for (size_t k = 0; k < world.sets.size(); ++k) {
-      ParticleSet& set = world.sets[k];
-      std::vector<uint8_t> gone(set.size(), 0);
-      for (size_t i = before[k]; i < set.size(); ++i) {
-        gone[i] = !share->keeps(set.x[i]);
-        if (!gone[i]) world.share_index[k].push_back(whole_count[k] + (i - before[k]));
-      }
-      set.removeFlagged(gone);
+  // A share is cut from every position, the sources' first particles too
+  // (made into empty copies of the sets: a source's survey of its sites
+  // counts only its own particles); then only what it keeps is built, each
+  // particle with its place in the whole world's set.
+  std::vector<ParticleSet> emitted = world.sets;
+  world.whole_particles += emitFromSources(world.sources, emitted, domain, 0.0, world.next_id);
+  std::vector<const std::vector<Vec3f>*> positions;
+  for (const Sampled& o : sampled) positions.push_back(&o.points);
+  for (const ParticleSet& e : emitted) positions.push_back(&e.x);
+  share->plan(positions);
+  std::vector<size_t> kept(world.sets.size(), 0);
+  for (const Sampled& o : sampled)
+    for (const Vec3f& x : o.points) kept[o.set] += share->keeps(x);
+  for (size_t k = 0; k < world.sets.size(); ++k)
+    for (const Vec3f& x : emitted[k].x) kept[k] += share->keeps(x);
+  world.share_index.assign(world.sets.size(), {});
+  for (size_t k = 0; k < world.sets.size(); ++k) {
+    world.sets[k].reserve(kept[k]);
+    world.share_index[k].reserve(kept[k]);
+  }
+  std::vector<uint64_t> whole_count(world.sets.size(), 0);
+  for (Sampled& o : sampled) {
+    ParticleSet& set = world.sets[o.set];
+    for (size_t j = 0; j < o.points.size(); ++j, ++whole_count[o.set]) {
+      if (!share->keeps(o.points[j])) continue;
+      set.push(o.points[j], o.vel, o.first_id + uint32_t(j), o.object);
+      world.share_index[o.set].push_back(whole_count[o.set]);
+    }
+    o.points = std::vector<Vec3f>();  // given back object by object
+  }
+  for (size_t k = 0; k < world.sets.size(); ++k) {
+    const ParticleSet& e = emitted[k];
+    for (size_t i = 0; i < e.size(); ++i) {
+      if (!share->keeps(e.x[i])) continue;
+      world.sets[k].push(e.x[i], e.v[i], e.id[i], e.object[i]);
+      world.share_index[k].push_back(whole_count[k] + i);
     }
   }
   return world;
