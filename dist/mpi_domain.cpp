@@ -255,6 +255,25 @@ void MpiDomain::adopt(std::vector<ParticleSet>& sets, std::vector<std::vector<ui
   bin_order_.clear();
   cut_time_ = MPI_Wtime();
   cut_comm_ = comm_seconds_;
+  // A checkpoint read after the build and then passed over cut anew from
+  // its own particles: the share built before is then not that cut's. The
+  // processes' particles are still the whole world once, each with its
+  // place in it, so a balance (counts from every process, particles moved
+  // to their owners in one process's order) puts them where a cut says.
+  std::vector<double> stray{0.0};
+  for (const ParticleSet& s : sets)
+    for (const Vec3f& x : s.x)
+      if (ownerOf(keyOf(x)) != rank_) {
+        stray[0] = 1.0;
+        break;
+      }
+  maxOverProcesses(stray);
+  if (stray[0] > 0.0) {
+    const bool by_work = by_work_;
+    by_work_ = false;  // equal counts, as the first cut
+    balance(sets);
+    by_work_ = by_work;
+  }
 }
 
 void MpiDomain::balance(std::vector<ParticleSet>& sets, bool whole) {

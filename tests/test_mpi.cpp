@@ -382,6 +382,46 @@ TEST_F(Mpi, ResumesUnderAnotherProcessCount) {
   EXPECT_TRUE(sameFile(frameVdb(dir / "split", frames), frameVdb(dir / "one", frames)));
 }
 
+// A checkpoint read under a split and then passed over (its frame's
+// particles are gone) leaves the run to start over from the share each
+// process built, under the cut the checkpoint's particles gave (here far
+// from the start's). The split moves the particles to where that cut says
+// before the first step, and the run still writes one process's bytes.
+// (Left where they were built, the first step's migration would move them
+// too, and the bytes would be the same: this guards the bytes of the path,
+// not where the particles wait.)
+TEST_F(Mpi, ACheckpointPassedOverLeavesTheBuiltShareWhereTheCutSays) {
+  const fs::path dir = test::tempDir("passed_over");
+  // Water released at the left runs to the right: by the checkpoint the
+  // cut (along x first) lies far from where the start's particles put it.
+  const int frames = 4;
+  json j = test::baseScene("mpi_passed_over", {0.64, 0.3, 0.1}, 0.02);
+  j["frames"] = {{"count", frames}, {"fps", 12}};
+  j["materials"] = {{"water", {{"model", "water"}, {"density", 1000}, {"bulk_modulus", 1e5}}}};
+  j["objects"] = json::array({{{"name", "water"},
+                               {"kind", "mpm"},
+                               {"material", "water"},
+                               {"shape", test::box({0.0, 0.0, 0.0}, {0.16, 0.24, 0.1})}}});
+  j["output"] = {{"vdb", true}, {"png", false}};
+  const std::string scene = test::writeScene(dir, j);
+  const test::CliResult one = run(dir, scene, dir / "one", "OMP_NUM_THREADS=1");
+  ASSERT_EQ(one.status, 0) << one.err;
+  const test::CliResult split = run(dir, scene, dir / "split", mpirun(3));
+  ASSERT_EQ(split.status, 0) << split.err;
+  for (const auto& e : fs::directory_iterator(dir / "split" / "checkpoints"))
+    if (e.path().filename() != "state.0004.bin") fs::remove(e.path());
+  ASSERT_TRUE(fs::exists(dir / "split" / "checkpoints" / "state.0004.bin"));
+  fs::remove(framePly(dir / "split", frames));
+  const test::CliResult again = run(dir, scene, dir / "split", mpirun(3), "--resume");
+  ASSERT_EQ(again.status, 0) << again.err;
+  EXPECT_NE(again.err.find("not used"), std::string::npos) << again.err;
+  EXPECT_NE(again.err.find("starting from frame 0"), std::string::npos) << again.err;
+  for (int f = 0; f <= frames; ++f) {
+    EXPECT_TRUE(sameFile(framePly(dir / "split", f), framePly(dir / "one", f))) << f;
+    EXPECT_TRUE(sameFile(frameVdb(dir / "split", f), frameVdb(dir / "one", f))) << f;
+  }
+}
+
 // A ball dropped into water beside a fixed wall, and sand pushed by an
 // animated collider: bodies are whole on every process, each node's
 // collision is its owner's, and the bodies move as under one process. The
