@@ -4,7 +4,6 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <iterator>
 
 #include "export/atomic_file.h"
 #include "sim/frame_name.h"
@@ -163,7 +162,6 @@ class Writer {
   Checksum sum_;
 };
 
-// Reads from a verified in-memory file, never past its payload.
 // Reads the payload in order straight from the file, one array (or one
 // chunk of an array read in part) at a time, checking every length against
 // what is left of the payload.
