@@ -76,7 +76,7 @@ class Solver {
   // Runs this world's particles as one part of a simulation split over
   // several processes (sim/mpm/domain.h); the world must already hold only
   // the particles this process owns. Solids and sources are whole on every
-  // process; scenes with sleep do not run split.
+  // process. The first step's speed becomes the largest over the processes.
   void setDomain(DomainExchange* domain);
   const TransferParams& transferParams() const { return params_; }
 

@@ -1,6 +1,5 @@
 #include "sim/world.h"
 
-#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -214,8 +213,8 @@ World buildWorld(const SceneDesc& scene, const MeshSampler& mesh_sampler,
   const double volume = std::pow(domain.dx, 3) / ppc;
   std::map<int, size_t> set_of_material;
   uint32_t next_id = 0;
-  // Each MPM object's positions, built into particles once every object is
-  // sampled: a share needs all of them to decide which it keeps.
+  // With a share, each MPM object's positions, made into particles once
+  // every object is sampled: the share is cut from all of them.
   struct Sampled {
     size_t set;
     std::vector<Vec3f> points;
