@@ -47,7 +47,7 @@ class MpiDomain final : public DomainExchange, public ParticleShare {
   void followWork() { by_work_ = true; }
   // Every process's particles, set by set in the order one process holds
   // them in, on process 0 (`all` holds the sets' descriptions and no
-  // particles on the others), sent in chunks of 64 MiB.
+  // particles on the others), sent in chunks of 4 MiB.
   void gather(const std::vector<ParticleSet>& sets, std::vector<ParticleSet>& all);
   double sum(double value);
 
@@ -115,7 +115,7 @@ class MpiDomain final : public DomainExchange, public ParticleShare {
   uint64_t bytes_sent_ = 0;
   uint64_t received_ = 0;
   double balance_seconds_ = 0.0;
-  size_t gather_chunk_ = size_t(64) << 20;  // bytes of particles per message to process 0
+  size_t gather_chunk_ = size_t(4) << 20;   // bytes of particles per message to process 0
   static constexpr int kExchangeTag = 100;  // and 101: exchange() alternates
   uint64_t round_ = 0;                      // exchanges so far
   bool by_work_ = false;

@@ -166,7 +166,7 @@ TEST_F(Mpi, TwoAndThreeProcessesAgreeWithOne) {
   for (int n : {2, 3}) {
     const fs::path out = dir / ("np" + std::to_string(n));
     // Three processes send process 0 their particles in chunks of 4 KiB
-    // (64 MiB unless a test asks), dozens of messages a frame.
+    // (4 MiB unless a test asks), dozens of messages a frame.
     const test::CliResult r =
         run(dir, scene, out, (n == 3 ? "TRIAD_MPI_GATHER_CHUNK=4096 " : "") + mpirun(n));
     ASSERT_EQ(r.status, 0) << r.err;
