@@ -239,7 +239,7 @@ void MpiDomain::plan(const std::vector<const std::vector<Vec3f>*>& positions) {
 }
 
 bool MpiDomain::keeps(const Vec3f& x) const {
-  return ownerOf(keyOf(x)) == rank_;
+  return ownsPoint(x);
 }
 
 void MpiDomain::adopt(std::vector<ParticleSet>& sets, std::vector<std::vector<uint64_t>>&& index) {
@@ -262,11 +262,8 @@ void MpiDomain::adopt(std::vector<ParticleSet>& sets, std::vector<std::vector<ui
   // to their owners in one process's order) puts them where a cut says.
   std::vector<double> stray{0.0};
   for (const ParticleSet& s : sets)
-    for (const Vec3f& x : s.x)
-      if (ownerOf(keyOf(x)) != rank_) {
-        stray[0] = 1.0;
-        break;
-      }
+    if (!std::all_of(s.x.begin(), s.x.end(), [&](const Vec3f& x) { return ownsPoint(x); }))
+      stray[0] = 1.0;
   maxOverProcesses(stray);
   if (stray[0] > 0.0) {
     const bool by_work = by_work_;

@@ -460,10 +460,8 @@ void restoreCheckpoint(Checkpoint&& c, World& world, Solver& solver) {
   for (size_t k = 0; k < c.sets.size(); ++k) {
     const ParticleSet& from = c.sets[k];
     const ParticleSet& to = world.sets[k];
-    const bool has_F = k < c.has_F.size() ? c.has_F[k] != 0 : !from.F.empty();
-    const bool has_J = k < c.has_J.size() ? c.has_J[k] != 0 : !from.J.empty();
     if (from.material != to.material || from.mass != to.mass || from.volume != to.volume ||
-        has_F != to.usesF() || has_J != to.usesJ())
+        (c.has_F[k] != 0) != to.usesF() || (c.has_J[k] != 0) != to.usesJ())
       throw CheckpointError("particle set " + std::to_string(k) +
                             " does not match the scene's (material, mass, volume or state)");
     for (uint16_t o : from.object)

@@ -305,30 +305,37 @@ World buildWorld(const SceneDesc& scene, const MeshSampler& mesh_sampler,
   for (const Sampled& o : sampled) positions.push_back(&o.points);
   for (const ParticleSet& e : emitted) positions.push_back(&e.x);
   share->plan(positions);
+  // Which particles are kept, decided once (objects, then sources, as in
+  // `positions`), counted per set for exact capacity.
+  std::vector<std::vector<uint8_t>> keep(positions.size());
   std::vector<size_t> kept(world.sets.size(), 0);
-  for (const Sampled& o : sampled)
-    for (const Vec3f& x : o.points) kept[o.set] += share->keeps(x);
-  for (size_t k = 0; k < world.sets.size(); ++k)
-    for (const Vec3f& x : emitted[k].x) kept[k] += share->keeps(x);
+  for (size_t o = 0; o < positions.size(); ++o) {
+    const size_t k = o < sampled.size() ? sampled[o].set : o - sampled.size();
+    keep[o].resize(positions[o]->size());
+    for (size_t j = 0; j < keep[o].size(); ++j)
+      kept[k] += keep[o][j] = share->keeps((*positions[o])[j]);
+  }
   world.share_index.assign(world.sets.size(), {});
   for (size_t k = 0; k < world.sets.size(); ++k) {
     world.sets[k].reserve(kept[k]);
     world.share_index[k].reserve(kept[k]);
   }
   std::vector<uint64_t> whole_count(world.sets.size(), 0);
-  for (Sampled& o : sampled) {
-    ParticleSet& set = world.sets[o.set];
-    for (size_t j = 0; j < o.points.size(); ++j, ++whole_count[o.set]) {
-      if (!share->keeps(o.points[j])) continue;
-      set.push(o.points[j], o.vel, o.first_id + uint32_t(j), o.object);
-      world.share_index[o.set].push_back(whole_count[o.set]);
+  for (size_t o = 0; o < sampled.size(); ++o) {
+    Sampled& s = sampled[o];
+    ParticleSet& set = world.sets[s.set];
+    for (size_t j = 0; j < s.points.size(); ++j, ++whole_count[s.set]) {
+      if (!keep[o][j]) continue;
+      set.push(s.points[j], s.vel, s.first_id + uint32_t(j), s.object);
+      world.share_index[s.set].push_back(whole_count[s.set]);
     }
-    o.points = std::vector<Vec3f>();  // given back object by object
+    s.points = std::vector<Vec3f>();  // given back object by object
   }
   for (size_t k = 0; k < world.sets.size(); ++k) {
     const ParticleSet& e = emitted[k];
+    const std::vector<uint8_t>& keep_e = keep[sampled.size() + k];
     for (size_t i = 0; i < e.size(); ++i) {
-      if (!share->keeps(e.x[i])) continue;
+      if (!keep_e[i]) continue;
       world.sets[k].push(e.x[i], e.v[i], e.id[i], e.object[i]);
       world.share_index[k].push_back(whole_count[k] + i);
     }

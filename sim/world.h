@@ -42,8 +42,9 @@ struct World {
 class ParticleShare {
  public:
   virtual ~ParticleShare() = default;
-  // Every MPM object's particle positions, in scene order (sources' first
-  // particles excluded), before any particle is built: fixes the share.
+  // The positions of every particle the start makes (each MPM object's,
+  // then the first particles of sources that start at once), before any
+  // particle is built: fixes the share.
   virtual void plan(const std::vector<const std::vector<Vec3f>*>& positions) = 0;
   virtual bool keeps(const Vec3f& x) const = 0;
 };
