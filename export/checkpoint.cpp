@@ -6,6 +6,7 @@
 #include <fstream>
 
 #include "export/atomic_file.h"
+#include "export/file_checksum.h"
 #include "sim/frame_name.h"
 
 namespace triad {
@@ -71,65 +72,33 @@ RigidState fromRecord(const BodyRecord& r) {
   return s;
 }
 
-// FNV-1a 64 over little-endian 8-byte words (the tail zero-padded), then the
-// length: about 8 times faster than byte-wise FNV on large arrays.
-class Checksum {
- public:
-  void update(const void* data, size_t n) {
-    if (n == 0) return;  // an empty array may have a null data pointer
-    const auto* p = static_cast<const unsigned char*>(data);
-    length_ += n;
-    if (fill_ > 0) {  // complete a partial word first
-      const size_t take = std::min(n, size_t(8) - fill_);
-      std::memcpy(tail_ + fill_, p, take);
-      fill_ += take;
-      p += take;
-      n -= take;
-      if (fill_ < 8) return;
-      mix(tail_);
-      fill_ = 0;
-    }
-    for (; n >= 8; n -= 8, p += 8) mix(p);
-    std::memcpy(tail_, p, n);  // n < 8
-    fill_ = n;
-  }
-  uint64_t value() const {
-    Checksum c = *this;
-    if (c.fill_ > 0) {
-      std::memset(c.tail_ + c.fill_, 0, 8 - c.fill_);
-      c.mix(c.tail_);
-    }
-    c.h_ ^= length_;
-    c.h_ *= kPrime;
-    return c.h_;
-  }
-
- private:
-  static constexpr uint64_t kPrime = 1099511628211ull;
-  void mix(const unsigned char* w) {
-    uint64_t v;
-    std::memcpy(&v, w, 8);
-    h_ ^= v;
-    h_ *= kPrime;
-  }
-  uint64_t h_ = 1469598103934665603ull;
-  uint64_t length_ = 0;
-  unsigned char tail_[8] = {};
-  size_t fill_ = 0;
-};
-
 template <class T>
 size_t arrayBytes(const std::vector<T>& a) {
   return a.size() * sizeof(T);
 }
 
-size_t payloadBytes(const std::string& scene_hash, const World& world, const SolverState& st) {
+// Bytes of set k's particle arrays in a file of `n` of its particles.
+std::array<uint64_t, 7> arraySizes(const ParticleSet& s, uint64_t n) {
+  // F and J only where the set has them; none at all for an empty set (as
+  // a single process writes one).
+  const bool has_F = n > 0 && (s.size() > 0 ? !s.F.empty() : s.usesF());
+  const bool has_J = n > 0 && (s.size() > 0 ? !s.J.empty() : s.usesJ());
+  std::array<uint64_t, 7> b{};
+  for (size_t a = 0; a < b.size(); ++a) b[a] = n * kCheckpointEntryBytes[a];
+  if (!has_F) b[3] = 0;
+  if (!has_J) b[4] = 0;
+  return b;
+}
+
+size_t payloadBytes(const std::string& scene_hash, const World& world, const SolverState& st,
+                    const std::vector<uint64_t>& counts) {
   size_t n = 4 + scene_hash.size() + 8 + 40;
   n += 8 + arrayBytes(st.sleep.keys) + arrayBytes(st.sleep.counts) + arrayBytes(st.sleep.still);
   n += 8 + arrayBytes(st.sleep.body_still);
-  for (const ParticleSet& s : world.sets)
-    n += sizeof(SetHeader) + arrayBytes(s.x) + arrayBytes(s.v) + arrayBytes(s.C) +
-         arrayBytes(s.F) + arrayBytes(s.J) + arrayBytes(s.id) + arrayBytes(s.object);
+  for (size_t k = 0; k < world.sets.size(); ++k) {
+    n += sizeof(SetHeader);
+    for (const uint64_t b : arraySizes(world.sets[k], counts[k])) n += size_t(b);
+  }
   n += 4;
   for (const RigidBody& b : world.bodies) n += 4 + b.name.size() + sizeof(BodyRecord);
   n += 4;
@@ -139,14 +108,14 @@ size_t payloadBytes(const std::string& scene_hash, const World& world, const Sol
   return n;
 }
 
-// Writes bytes to the stream and the checksum.
-class Writer {
+// What the writer walks the file with, in order.
+class ByteSink {
  public:
-  explicit Writer(std::ostream& out) : out_(out) {}
-  void bytes(const void* p, size_t n) {
-    out_.write(static_cast<const char*>(p), std::streamsize(n));
-    sum_.update(p, n);
-  }
+  virtual ~ByteSink() = default;
+  virtual void bytes(const void* p, size_t n) = 0;
+  // Set k's particle array a (x v C F J id object), n bytes of the whole
+  // world's; `p` holds them when this writer has them all.
+  virtual void particles(size_t k, int a, const void* p, size_t n) = 0;
   template <class T>
   void pod(const T& v) {
     bytes(&v, sizeof(T));
@@ -155,11 +124,49 @@ class Writer {
   void array(const std::vector<T>& a) {
     bytes(a.data(), arrayBytes(a));
   }
-  uint64_t checksum() const { return sum_.value(); }
+};
+
+// The whole file to a stream, with its checksum.
+class StreamSink final : public ByteSink {
+ public:
+  explicit StreamSink(std::ostream& out) : out_(out) {}
+  void bytes(const void* p, size_t n) override {
+    out_.write(static_cast<const char*>(p), std::streamsize(n));
+    sum_.append(p, n);
+  }
+  void particles(size_t, int, const void* p, size_t n) override { bytes(p, n); }
+  const FileChecksum& checksum() const { return sum_; }
 
  private:
   std::ostream& out_;
-  Checksum sum_;
+  FileChecksum sum_;
+};
+
+// Everything but the particles' arrays as pieces at their offsets, and
+// where those arrays begin.
+class LayoutSink final : public ByteSink {
+ public:
+  explicit LayoutSink(CheckpointLayout& layout) : layout_(layout) {}
+  void bytes(const void* p, size_t n) override {
+    if (n == 0) return;
+    std::vector<CheckpointLayout::Piece>& pieces = layout_.pieces;
+    // Adjacent bytes join the piece before.
+    if (pieces.empty() || pieces.back().offset + pieces.back().bytes.size() != at_)
+      pieces.push_back({at_, {}});
+    const auto* c = static_cast<const unsigned char*>(p);
+    pieces.back().bytes.insert(pieces.back().bytes.end(), c, c + n);
+    at_ += n;
+  }
+  void particles(size_t k, int a, const void*, size_t n) override {
+    if (layout_.arrays.size() <= k) layout_.arrays.resize(k + 1);
+    layout_.arrays[k][size_t(a)] = at_;
+    at_ += n;
+  }
+  uint64_t at() const { return at_; }
+
+ private:
+  CheckpointLayout& layout_;
+  uint64_t at_ = 0;
 };
 
 // Reads the payload in order straight from the file, one array (or one
@@ -234,74 +241,106 @@ void writeCheckpoint(const std::string& path, int frame, const std::string& scen
   writeCheckpoint(path, frame, scene_hash, world, solver.state(), record);
 }
 
+namespace {
+
+// The file in order, but for its trailer. `counts`: the particles of each
+// set in the whole world, which `world`'s sets hold all of or (a split
+// run's process 0, with a LayoutSink) only a share of.
+void walkCheckpoint(ByteSink& w, int frame, const std::string& scene_hash, const World& world,
+                    const SolverState& st, const StepRecord& record,
+                    const std::vector<uint64_t>& counts) {
+  // Header: what and when.
+  Header h{};
+  std::memcpy(h.magic, kMagic, 8);
+  h.version = kCheckpointVersion;
+  h.header_bytes = kHeaderBytes;
+  h.payload_bytes = payloadBytes(scene_hash, world, st, counts);
+  h.frame = frame;
+  h.sets = uint32_t(world.sets.size());
+  h.time = world.time;
+  h.steps = world.steps;
+  w.pod(h);
+
+  // Payload: scene hash, solver state, step statistics, particle sets.
+  w.pod(uint32_t(scene_hash.size()));
+  w.bytes(scene_hash.data(), scene_hash.size());
+  w.pod(st.max_speed);
+  w.pod(st.max_stiffness_scale);
+  w.pod(record.steps);
+  w.pod(record.dt_min);
+  w.pod(record.dt_max);
+  w.pod(record.particle_steps);
+  w.pod(record.sleeping_steps);
+  w.pod(uint64_t(st.sleep.keys.size()));
+  w.array(st.sleep.keys);
+  w.array(st.sleep.counts);
+  w.array(st.sleep.still);
+  w.pod(uint64_t(st.sleep.body_still.size()));
+  w.array(st.sleep.body_still);
+  for (size_t k = 0; k < world.sets.size(); ++k) {
+    const ParticleSet& s = world.sets[k];
+    const std::array<uint64_t, 7> sizes = arraySizes(s, counts[k]);
+    const SetHeader sh{
+        s.material, s.mass, s.volume, counts[k], uint8_t(sizes[3] > 0), uint8_t(sizes[4] > 0), 0};
+    w.pod(sh);
+    const void* data[7] = {s.x.data(), s.v.data(),  s.C.data(),     s.F.data(),
+                           s.J.data(), s.id.data(), s.object.data()};
+    for (int a = 0; a < 7; ++a) w.particles(k, a, data[a], size_t(sizes[size_t(a)]));
+  }
+  w.pod(uint32_t(world.bodies.size()));
+  for (const RigidBody& b : world.bodies) {
+    w.pod(uint32_t(b.name.size()));
+    w.bytes(b.name.data(), b.name.size());
+    w.pod(toRecord(b.state));
+  }
+  w.pod(uint32_t(world.elastics.size()));
+  for (const ElasticSolid& e : world.elastics) {
+    w.pod(uint32_t(e.name.size()));
+    w.bytes(e.name.data(), e.name.size());
+    w.pod(uint64_t(e.fem.nodes()));
+    w.array(e.fem.x);
+    w.array(e.fem.v);
+  }
+  w.pod(world.next_id);
+  w.pod(uint32_t(world.sources.size() + world.sinks.size()));
+  for (const Source& src : world.sources) w.pod(uint64_t(src.emitted));
+  for (const Sink& k : world.sinks) w.pod(uint64_t(k.removed));
+}
+
+}  // namespace
+
 void writeCheckpoint(const std::string& path, int frame, const std::string& scene_hash,
                      const World& world, const SolverState& st, const StepRecord& record) {
+  std::vector<uint64_t> counts;
+  for (const ParticleSet& s : world.sets) counts.push_back(s.size());
   writeFileAtomically(path, [&](std::ostream& out) {
-    Writer w(out);
-    // Header: what and when.
-    Header h{};
-    std::memcpy(h.magic, kMagic, 8);
-    h.version = kCheckpointVersion;
-    h.header_bytes = kHeaderBytes;
-    h.payload_bytes = payloadBytes(scene_hash, world, st);
-    h.frame = frame;
-    h.sets = uint32_t(world.sets.size());
-    h.time = world.time;
-    h.steps = world.steps;
-    w.pod(h);
-
-    // Payload: scene hash, solver state, step statistics, particle sets.
-    w.pod(uint32_t(scene_hash.size()));
-    w.bytes(scene_hash.data(), scene_hash.size());
-    w.pod(st.max_speed);
-    w.pod(st.max_stiffness_scale);
-    w.pod(record.steps);
-    w.pod(record.dt_min);
-    w.pod(record.dt_max);
-    w.pod(record.particle_steps);
-    w.pod(record.sleeping_steps);
-    w.pod(uint64_t(st.sleep.keys.size()));
-    w.array(st.sleep.keys);
-    w.array(st.sleep.counts);
-    w.array(st.sleep.still);
-    w.pod(uint64_t(st.sleep.body_still.size()));
-    w.array(st.sleep.body_still);
-    for (const ParticleSet& s : world.sets) {
-      const SetHeader sh{s.material, s.mass, s.volume, uint64_t(s.size()),
-                         uint8_t(!s.F.empty()), uint8_t(!s.J.empty()), 0};
-      w.pod(sh);
-      w.array(s.x);
-      w.array(s.v);
-      w.array(s.C);
-      w.array(s.F);
-      w.array(s.J);
-      w.array(s.id);
-      w.array(s.object);
-    }
-    w.pod(uint32_t(world.bodies.size()));
-    for (const RigidBody& b : world.bodies) {
-      w.pod(uint32_t(b.name.size()));
-      w.bytes(b.name.data(), b.name.size());
-      w.pod(toRecord(b.state));
-    }
-    w.pod(uint32_t(world.elastics.size()));
-    for (const ElasticSolid& e : world.elastics) {
-      w.pod(uint32_t(e.name.size()));
-      w.bytes(e.name.data(), e.name.size());
-      w.pod(uint64_t(e.fem.nodes()));
-      w.array(e.fem.x);
-      w.array(e.fem.v);
-    }
-    w.pod(world.next_id);
-    w.pod(uint32_t(world.sources.size() + world.sinks.size()));
-    for (const Source& src : world.sources) w.pod(uint64_t(src.emitted));
-    for (const Sink& k : world.sinks) w.pod(uint64_t(k.removed));
-
+    StreamSink w(out);
+    walkCheckpoint(w, frame, scene_hash, world, st, record, counts);
     // Trailer: checksum of all the above.
-    const uint64_t sum = w.checksum();
-    out.write(reinterpret_cast<const char*>(&sum), sizeof(sum));
-    out.write(kEndMagic, 8);
+    const auto trailer = checkpointTrailer(w.checksum(), w.checksum().end());
+    out.write(reinterpret_cast<const char*>(trailer.data()), std::streamsize(trailer.size()));
   });
+}
+
+CheckpointLayout layoutCheckpoint(int frame, const std::string& scene_hash, const World& world,
+                                  const SolverState& st, const StepRecord& record,
+                                  const std::vector<uint64_t>& counts) {
+  if (counts.size() != world.sets.size())
+    throw std::logic_error("layoutCheckpoint: one count per particle set");
+  CheckpointLayout layout;
+  LayoutSink w(layout);
+  walkCheckpoint(w, frame, scene_hash, world, st, record, counts);
+  layout.arrays.resize(world.sets.size());
+  layout.bytes = w.at() + kTrailerBytes;
+  return layout;
+}
+
+std::array<unsigned char, 16> checkpointTrailer(const FileChecksum& sum, uint64_t bytes) {
+  std::array<unsigned char, 16> t{};
+  const uint64_t value = sum.value(bytes);
+  std::memcpy(t.data(), &value, 8);
+  std::memcpy(t.data() + 8, kEndMagic, 8);
+  return t;
 }
 
 Checkpoint readCheckpoint(const std::string& path, ParticleShare* share) {
@@ -325,14 +364,14 @@ Checkpoint readCheckpoint(const std::string& path, ParticleShare* share) {
       size != kHeaderBytes + h.payload_bytes + kTrailerBytes)
     throw CheckpointError("truncated or padded: " + std::to_string(size) + " bytes, header says " +
                           std::to_string(kHeaderBytes + h.payload_bytes + kTrailerBytes));
-  Checksum sum;
-  sum.update(&h, kHeaderBytes);
+  FileChecksum sum;
+  sum.append(&h, kHeaderBytes);
   {
     std::vector<char> buffer(size_t(1) << 20);
     for (uint64_t left = h.payload_bytes; left > 0;) {
       const size_t m = size_t(std::min<uint64_t>(left, buffer.size()));
       if (!in.read(buffer.data(), std::streamsize(m))) throw CheckpointError("read failed");
-      sum.update(buffer.data(), m);
+      sum.append(buffer.data(), m);
       left -= m;
     }
   }

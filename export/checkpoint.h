@@ -4,7 +4,7 @@
 // uninterrupted run would. Materials are not stored: they are rebuilt from
 // the scene, whose hash the checkpoint records.
 //
-// File (checkpoints/state.FFFF.bin), little-endian, version 5:
+// File (checkpoints/state.FFFF.bin), little-endian, version 6:
 //   header   char[8] "TRIADCKP", u32 format version, u32 header bytes (= 64),
 //            u64 payload bytes, i32 frame, u32 set count, f64 time,
 //            i64 steps, u8[16] reserved (zero)
@@ -28,15 +28,18 @@
 //            shot         (u32 next particle id; u32 count; per source then
 //                         per sink, in world order: u64 particles emitted or
 //                         removed so far)
-//   trailer  u64 checksum of header and payload (FNV-1a 64 over 8-byte words),
+//   trailer  u64 checksum of header and payload (export/file_checksum.h:
+//            one that the processes of a split run take in parts),
 //            char[8] "TRIADEND"
 // Other versions are refused (a resume then starts over from frame 0).
+#include <array>
 #include <cstdint>
 #include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
 
+#include "export/file_checksum.h"
 #include "sim/solver.h"
 #include "sim/world.h"
 
@@ -72,7 +75,10 @@ struct Checkpoint {
   std::vector<uint64_t> shot_counts;  // emitted per source, then removed per sink
 };
 
-constexpr uint32_t kCheckpointVersion = 5;
+constexpr uint32_t kCheckpointVersion = 6;
+// Bytes of one particle's entry in each of a set's arrays, in file order:
+// x v C F J id object.
+constexpr std::array<uint64_t, 7> kCheckpointEntryBytes{12, 12, 36, 36, 4, 4, 2};
 
 // Writes the world's particle sets, rigid body states and clock, the solver
 // state and the frame atomically to `path`. Throws std::runtime_error naming
@@ -83,6 +89,30 @@ void writeCheckpoint(const std::string& path, int frame, const std::string& scen
 // written on another thread while the solver steps on).
 void writeCheckpoint(const std::string& path, int frame, const std::string& scene_hash,
                      const World& world, const SolverState& solver, const StepRecord& record);
+
+// A split run's checkpoint, which every process writes at once, each its
+// own particles (app/run_split.cpp). The file is the one writeCheckpoint
+// makes of the whole world: the layout gives the bytes that process 0
+// writes besides the particles (`world` holds only its share) and where
+// each particle array begins; `counts`: each set's particles in the whole
+// world.
+struct CheckpointLayout {
+  struct Piece {
+    uint64_t offset = 0;
+    std::vector<unsigned char> bytes;
+  };
+  std::vector<Piece> pieces;  // header and payload but the particle arrays
+  // Per set, where entry 0 of each array lies (kCheckpointEntryBytes' order;
+  // an array the file does not hold, F or J, takes no bytes).
+  std::vector<std::array<uint64_t, 7>> arrays;
+  uint64_t bytes = 0;  // the file's size, trailer included
+};
+CheckpointLayout layoutCheckpoint(int frame, const std::string& scene_hash, const World& world,
+                                  const SolverState& solver, const StepRecord& record,
+                                  const std::vector<uint64_t>& counts);
+// The last 16 bytes of a checkpoint from the checksum of the `bytes` bytes
+// before them (every one of them added to `sum` or merged into it).
+std::array<unsigned char, 16> checkpointTrailer(const FileChecksum& sum, uint64_t bytes);
 
 // Reads and verifies (size, magic, version, checksum, array sizes) a
 // checkpoint. Throws CheckpointError saying what is wrong. With `share`,

@@ -325,6 +325,116 @@ TEST(CheckpointBodies, OtherBodiesAreRefusedAndNothingChanges) {
   }
 }
 
+// Pieces of a file summed in any order, cut anywhere (mid-word too), give
+// the checksum of the whole; a flipped bit or two swapped words do not.
+TEST(FileChecksum, PartsInAnyOrderAndAnyCutAddUpToTheWhole) {
+  std::vector<unsigned char> bytes(1003);
+  uint32_t state = 12345;
+  for (unsigned char& b : bytes) b = uint8_t((state = state * 1664525u + 1013904223u) >> 24);
+  FileChecksum whole;
+  whole.append(bytes.data(), bytes.size());
+  for (const std::vector<size_t>& cuts :
+       {std::vector<size_t>{0, 1003}, {0, 5, 8, 13, 400, 1003}, {0, 3, 1000, 1003}}) {
+    FileChecksum merged;
+    for (size_t k = cuts.size() - 1; k > 0; --k) {  // last piece first
+      FileChecksum part;
+      part.add(cuts[k - 1], bytes.data() + cuts[k - 1], cuts[k] - cuts[k - 1]);
+      merged.merge(part.part());
+    }
+    EXPECT_EQ(merged.value(bytes.size()), whole.value()) << cuts.size();
+  }
+  std::vector<unsigned char> flipped = bytes;
+  flipped[517] ^= 0x10;
+  FileChecksum f;
+  f.append(flipped.data(), flipped.size());
+  EXPECT_NE(f.value(), whole.value());
+  std::vector<unsigned char> swapped = bytes;
+  std::swap_ranges(swapped.begin() + 64, swapped.begin() + 72, swapped.begin() + 128);
+  FileChecksum s;
+  s.append(swapped.data(), swapped.size());
+  EXPECT_NE(s.value(), whole.value());
+  // The length counts: a zero byte more is another file.
+  FileChecksum longer;
+  longer.append(bytes.data(), bytes.size());
+  const unsigned char zero = 0;
+  longer.append(&zero, 1);
+  EXPECT_NE(longer.value(), whole.value());
+}
+
+// A split run's checkpoint: process 0 writes the layout's pieces and every
+// process its particles at their places, each summing what it wrote. Done
+// here for two shares of every set (one of them empty for one set): the
+// bytes are those of one process's checkpoint of the whole world.
+TEST(CheckpointLayout, SharesWrittenAtTheirPlacesMakeTheSingleProcessFile) {
+  const fs::path dir = test::tempDir("ckpt_layout");
+  json scene = bodiesScene();
+  scene["materials"]["water"] = {{"model", "water"}, {"density", 1000}, {"bulk_modulus", 1e5}};
+  scene["objects"].push_back({{"name", "pool"},
+                              {"kind", "mpm"},
+                              {"material", "water"},
+                              {"shape", test::box({0.6, 0.1, 0.1}, {0.9, 0.2, 0.3})}});
+  World w = test::loadWorld(dir, scene);
+  ASSERT_EQ(w.sets.size(), 2u);
+  perturb(w, 0, 1.0);
+  w.time = 0.25;
+  w.steps = 300;
+  Solver solver(w);
+  const SolverState st = solver.state();
+  const std::string path = (dir / "state.0005.bin").string();
+  writeCheckpoint(path, 5, "fnv1a64:feed", w, st, solver.record());
+  const std::string expected = slurp(path);
+
+  // Share 0: the first third of the jelly and none of the water; share 1 the rest.
+  std::vector<uint64_t> counts, first1;
+  for (const ParticleSet& s : w.sets) counts.push_back(s.size());
+  first1 = {counts[0] / 3, 0};
+  World share0 = w;
+  for (size_t k = 0; k < 2; ++k) {
+    ParticleSet& s = share0.sets[k];
+    const size_t n = size_t(first1[k]);
+    s.x.resize(n), s.v.resize(n), s.C.resize(n), s.id.resize(n), s.object.resize(n);
+    if (!s.F.empty()) s.F.resize(n);
+    if (!s.J.empty()) s.J.resize(n);
+  }
+  const CheckpointLayout layout =
+      layoutCheckpoint(5, "fnv1a64:feed", share0, st, solver.record(), counts);
+  ASSERT_EQ(layout.bytes, expected.size());
+  std::string file(layout.bytes, '\0');
+  auto put = [&](uint64_t offset, const void* p, size_t n, FileChecksum& part) {
+    if (n == 0) return;
+    std::memcpy(file.data() + offset, p, n);
+    part.add(offset, p, n);
+  };
+  FileChecksum part0, part1;
+  for (const CheckpointLayout::Piece& piece : layout.pieces)
+    put(piece.offset, piece.bytes.data(), piece.bytes.size(), part0);
+  for (size_t k = 0; k < 2; ++k) {
+    const ParticleSet& s = w.sets[k];
+    const void* data[7] = {s.x.data(), s.v.data(),  s.C.data(),     s.F.data(),
+                           s.J.data(), s.id.data(), s.object.data()};
+    const bool has[7] = {true, true, true, !s.F.empty(), !s.J.empty(), true, true};
+    for (size_t a = 0; a < 7; ++a) {
+      if (!has[a]) continue;
+      const uint64_t e = kCheckpointEntryBytes[a], at = layout.arrays[k][a];
+      const auto* bytes = static_cast<const unsigned char*>(data[a]);
+      put(at, bytes, size_t(first1[k] * e), part0);
+      put(at + first1[k] * e, bytes + first1[k] * e, size_t((counts[k] - first1[k]) * e), part1);
+    }
+  }
+  FileChecksum sum;
+  sum.merge(part1.part());
+  sum.merge(part0.part());
+  // The checksum covers all but the trailer, whose place the layout leaves.
+  const std::array<unsigned char, 16> end = checkpointTrailer(sum, layout.bytes - 16);
+  std::memcpy(file.data() + layout.bytes - 16, end.data(), 16);
+  EXPECT_TRUE(file == expected);
+  // And it reads back.
+  std::ofstream(dir / "assembled.bin", std::ios::binary) << file;
+  const Checkpoint c = readCheckpoint((dir / "assembled.bin").string());
+  EXPECT_EQ(c.sets[0].x, w.sets[0].x);
+  EXPECT_EQ(c.sets[1].J, w.sets[1].J);
+}
+
 TEST(PreviewBodies, FrameFromWorldDrawsEveryBodyInItsObjectColour) {
   const fs::path dir = test::tempDir("preview_bodies");
   World w = test::loadWorld(dir, bodiesScene());
