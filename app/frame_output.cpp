@@ -236,13 +236,17 @@ void writeCachePvd(const SceneDesc& scene, const std::string& out_dir, int frame
 
 std::vector<std::pair<int, TriSurface>> writeFrameCaches(const SceneDesc& scene,
                                                          const std::string& out_dir,
-                                                         const World& world, int frame) {
+                                                         const World& world, int frame,
+                                                         const std::string& particles_written) {
   std::vector<std::pair<int, TriSurface>> surfaces;
   const bool vtk = scene.output.vtk;
   // The VDB voxel, which also bounds the surfaces' level-set voxel.
   const double voxel =
       scene.output.vdb_voxel_size > 0 ? scene.output.vdb_voxel_size : scene.domain.dx;
-  if (scene.output.ply) writeParticlesPly(particlesPath(out_dir, frame), world);
+  if (!particles_written.empty())
+    moveIntoPlace(particles_written, particlesPath(out_dir, frame));
+  else if (scene.output.ply)
+    writeParticlesPly(particlesPath(out_dir, frame), world);
   if (vtk) writeParticlesVtp(frameName(vtkDir(out_dir), "particles", frame, "vtp"), world);
   if (scene.output.vdb) {
     VdbFrameInfo info;
@@ -304,8 +308,12 @@ void writeFrameBodies(const std::string& out_dir, const World& world, int frame,
 }
 
 void writeFrameCheckpoint(const std::string& out_dir, int frame, const std::string& scene_hash,
-                          const World& world, const SolverState& solver, const StepRecord& record) {
-  writeCheckpoint(checkpointPath(out_dir, frame), frame, scene_hash, world, solver, record);
+                          const World& world, const SolverState& solver, const StepRecord& record,
+                          const std::string& written) {
+  if (!written.empty())
+    moveIntoPlace(written, checkpointPath(out_dir, frame));
+  else
+    writeCheckpoint(checkpointPath(out_dir, frame), frame, scene_hash, world, solver, record);
   // Keep this one and the one before (the fallback if this one is damaged).
   for (const auto& [f, path] : listCheckpoints(checkpointDir(out_dir))) {
     if (f == frame || f == frame - 1) continue;

@@ -40,6 +40,12 @@ struct BodyLogs {
 // the scene has rigid objects).
 void makeOutputDirectories(const SceneDesc& scene, const std::string& out_dir);
 
+// A split run's frame files that its processes wrote together: the
+// temporaries to rename into place (empty: not written that way).
+struct SharedWrites {
+  std::string particles, checkpoint;
+};
+
 // Writes the frame's cache files that the scene asks for: PLY particles, the
 // VDB volumes (voxel size output.vdb_voxel_size, else domain.dx) and each
 // material's surface mesh (its level set's voxel bounded by the same size),
@@ -48,9 +54,11 @@ void makeOutputDirectories(const SceneDesc& scene, const std::string& out_dir);
 // Returns the material surfaces it made (material index, mesh): with
 // output.surface_mesh, or previews (output.png) in render.style "surface";
 // else none.
+// `particles_written`: the particle cache's temporary, already written.
 std::vector<std::pair<int, TriSurface>> writeFrameCaches(const SceneDesc& scene,
                                                          const std::string& out_dir,
-                                                         const World& world, int frame);
+                                                         const World& world, int frame,
+                                                         const std::string& particles_written = "");
 
 // Writes the frame's rigid body caches: every body's surface, then the state
 // table with this frame's rows recorded in `logs`, and for frames after the
@@ -60,9 +68,11 @@ std::vector<std::pair<int, TriSurface>> writeFrameCaches(const SceneDesc& scene,
 void writeFrameBodies(const std::string& out_dir, const World& world, int frame, BodyLogs& logs,
                       const std::vector<BodyLoad>& loads);
 
-// Writes the frame's checkpoint, then deletes all but it and the one before.
+// Writes the frame's checkpoint (or renames `written`, its temporary,
+// into place), then deletes all but it and the one before.
 void writeFrameCheckpoint(const std::string& out_dir, int frame, const std::string& scene_hash,
-                          const World& world, const SolverState& solver, const StepRecord& record);
+                          const World& world, const SolverState& solver, const StepRecord& record,
+                          const std::string& written = "");
 
 // Deletes temporaries (NAME.tmpPID) that a killed run left in the cache
 // folders. Call before this run writes anything.

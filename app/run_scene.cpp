@@ -256,6 +256,7 @@ int runScene(const RunOptions& options_in) {
   // before a resume, so that their sum is the run's.
   split.barrier();
   split.attach(world, solver, options.balance == "work");
+  split.checkSharedFolder(out_dir);
   if (!split.root()) before = StepRecord{};
   rec.frames_written = resumed_from + 1;  // frames 0..resumed_from are on disk
   rec.resume = options.resume;
@@ -346,9 +347,10 @@ int runScene(const RunOptions& options_in) {
   // checkpoint (its presence means the frame is complete), then run.json.
   // `w` is the world at the frame's end: a copy when frames overlap.
   auto writeFrameFiles = [&](const World& w, int frame, const SimState& sim,
-                             const std::vector<BodyLoad>& loads, const SolverState& solver_state) {
+                             const std::vector<BodyLoad>& loads, const SolverState& solver_state,
+                             const SharedWrites& shared) {
     // Particles (PLY), volumes (VDB), rigid body meshes and states.
-    const auto surfaces = writeFrameCaches(scene, out_dir, w, frame);
+    const auto surfaces = writeFrameCaches(scene, out_dir, w, frame, shared.particles);
     writeFrameBodies(out_dir, w, frame, body_logs, loads);
     // The preview render (rigid bodies drawn as meshes; with render.style
     // "surface" the materials' surfaces instead of their particles).
@@ -366,28 +368,47 @@ int runScene(const RunOptions& options_in) {
     }
     // The checkpoint, last: --resume trusts every file of a checkpointed frame.
     if (scene.output.checkpoints)
-      writeFrameCheckpoint(out_dir, frame, checkpoint_key, w, solver_state, sim.steps);
+      writeFrameCheckpoint(out_dir, frame, checkpoint_key, w, solver_state, sim.steps,
+                           shared.checkpoint);
     rec.frames_written = frame + 1;
     record(sim, false, "");
   };
+  // What process 0 needs every particle for: the outputs that sample or
+  // draw them all at once (the particle cache and the checkpoint too where
+  // the processes cannot write one file together).
+  const bool shared_files = split.active() && split.sharedFiles();
+  const bool gather_particles = scene.output.png || scene.output.vdb || scene.output.vtk ||
+                                scene.output.surface_mesh ||
+                                (!shared_files && (scene.output.ply || scene.output.checkpoints));
   auto writeFrame = [&](int frame) {
     const double t0 = omp_get_wtime();
+    SimState sim = simState();
+    // Split over processes on a file system they share, every process
+    // writes its own particles into the frame's particle cache and
+    // checkpoint, under temporary names that process 0 renames into place
+    // with the frame's other files.
+    SharedWrites shared;
+    if (shared_files && scene.output.ply)
+      shared.particles = split.writeParticlesShared(particlesPath(out_dir, frame), world);
+    if (shared_files && scene.output.checkpoints)
+      shared.checkpoint = split.writeCheckpointShared(
+          checkpointPath(out_dir, frame), frame, checkpoint_key, world, solver.state(), sim.steps);
     // The frame's state; the world itself is copied only when the solver
     // steps on while it is written. Split over processes, process 0 gathers
-    // every particle into a copy of its own and alone writes.
+    // every particle into a copy of its own where an output needs them all,
+    // and alone writes.
     std::shared_ptr<const World> w =
-        split.active() ? split.gather(world)
+        split.active() ? split.gather(world, gather_particles)
         : overlap      ? std::make_shared<const World>(world)
                        : std::shared_ptr<const World>(&world, [](const World*) {});
-    SimState sim = simState();
     split.record(rec, world);
     if (!split.root()) return;
     std::vector<BodyLoad> loads = solver.bodyLoads();
     const SolverState solver_state = solver.state();
     output.submit([&writeFrameFiles, w, frame, sim = std::move(sim), loads = std::move(loads),
-                   solver_state]() {
+                   solver_state, shared]() {
       try {
-        writeFrameFiles(*w, frame, sim, loads, solver_state);
+        writeFrameFiles(*w, frame, sim, loads, solver_state, shared);
       } catch (const std::exception& e) {
         throw std::runtime_error("writing frame " + std::to_string(frame) + ": " + e.what());
       }

@@ -70,15 +70,34 @@ void RunSplit::rebalance(World& world) {
   if (domain_) domain_->balance(world.sets);
 }
 
-std::shared_ptr<const World> RunSplit::gather(const World& world) {
+std::shared_ptr<const World> RunSplit::gather(World& world, bool particles) {
   if (!domain_) return nullptr;
   std::vector<ParticleSet> all;
-  domain_->gather(world.sets, all);
+  if (particles) domain_->gather(world.sets, all);
   if (!root()) return nullptr;
   // Everything else is whole on every process: a copy of this one's world
-  // with the gathered particles in place of its share.
-  auto copy = std::make_shared<World>(world);
-  copy->sets = std::move(all);
+  // with the gathered particles (or none) in place of its share, which is
+  // not copied.
+  std::vector<ParticleSet> share = std::move(world.sets);
+  std::shared_ptr<World> copy;
+  try {
+    // The sets' descriptions without their particles.
+    world.sets.clear();
+    for (const ParticleSet& s : share) {
+      ParticleSet e;
+      e.material = s.material;
+      e.model = s.model;
+      e.mass = s.mass;
+      e.volume = s.volume;
+      world.sets.push_back(std::move(e));
+    }
+    copy = std::make_shared<World>(world);
+  } catch (...) {
+    world.sets = std::move(share);
+    throw;
+  }
+  world.sets = std::move(share);
+  if (particles) copy->sets = std::move(all);
   return copy;
 }
 
@@ -174,7 +193,7 @@ ParticleShare* RunSplit::share(const SceneDesc&) {
 }
 void RunSplit::attach(World&, Solver&, bool) {}
 void RunSplit::rebalance(World&) {}
-std::shared_ptr<const World> RunSplit::gather(const World&) {
+std::shared_ptr<const World> RunSplit::gather(World&, bool) {
   return nullptr;
 }
 double RunSplit::sum(double value) {

@@ -14,6 +14,8 @@ struct SceneDesc;
 class ParticleShare;
 class Solver;
 struct RunRecord;
+struct SolverState;
+struct StepRecord;
 class MpiDomain;
 
 class RunSplit {
@@ -44,8 +46,25 @@ class RunSplit {
   void attach(World& world, Solver& solver, bool follow_work = false);
   // Moves the split to where the particles are now (each frame).
   void rebalance(World& world);
-  // The world with every process's particles, on process 0 (null on the others).
-  std::shared_ptr<const World> gather(const World& world);
+  // The world with every process's particles, on process 0 (null on the
+  // others); without `particles`, a copy of process 0's world without any.
+  // The world's own particles are set aside while it is copied, not copied.
+  std::shared_ptr<const World> gather(World& world, bool particles = true);
+  // Whether every process sees the cache folder (a file system they share):
+  // each then writes its own particles into the frame's particle cache and
+  // checkpoint (app/split_files.cpp), and process 0 gathers none for them.
+  // Asked once, after process 0 made the folder; collective.
+  void checkSharedFolder(const std::string& out_dir);
+  bool sharedFiles() const { return shared_files_; }
+  // Collective: every process writes its particles into one file of the
+  // whole world, the bytes a single process writes at `path`, under a
+  // temporary name beside it, which is returned (process 0 renames it into
+  // place once the frame's other files are written). Throws on every
+  // process if one of them failed, the temporary removed.
+  std::string writeCheckpointShared(const std::string& path, int frame,
+                                    const std::string& scene_hash, const World& world,
+                                    const SolverState& state, const StepRecord& record);
+  std::string writeParticlesShared(const std::string& path, const World& world);
   // Sums over processes.
   double sum(double value);
   // The largest pending signal of any process (0: none).
@@ -61,6 +80,7 @@ class RunSplit {
   int rank_ = 0, size_ = 1;
   std::unique_ptr<MpiDomain> domain_;
   double built_ = 0.0;  // particles this process held when the split began
+  bool shared_files_ = false;
 };
 
 }  // namespace triad

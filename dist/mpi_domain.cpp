@@ -615,6 +615,57 @@ std::vector<unsigned char> MpiDomain::allGather(const std::vector<unsigned char>
   return all;
 }
 
+bool MpiDomain::wholeIndex(const std::vector<ParticleSet>& sets,
+                           std::vector<std::vector<uint64_t>>& index,
+                           std::vector<uint64_t>& counts) {
+  const double t0 = MPI_Wtime();
+  // A particle's sequence number is (process << 40 | index) as of the last
+  // binning, or its index in the whole world since the split began: in
+  // either case the whole world's order is theirs, and within each value
+  // of the top bits the indices run densely from 0. So its place is the
+  // count of the groups before its own plus its index in the group.
+  constexpr int kShift = 40;
+  const size_t groups = size_t(size_), n = sets.size();
+  // (And one more entry in each: whether any number lay outside the groups.)
+  std::vector<uint64_t> count(n * groups + 1, 0), top(n * groups + 1, 0);
+  auto seqOf = [&](size_t s, size_t i) {
+    const bool numbered = !seq_fresh_ && s < seq_.size() && seq_[s].size() == sets[s].size();
+    return numbered ? seq_[s][i] : uint64_t(rank_) << kShift | i;
+  };
+  for (size_t s = 0; s < n; ++s)
+    for (size_t i = 0; i < sets[s].size(); ++i) {
+      const uint64_t q = seqOf(s, i), g = q >> kShift;
+      if (g >= groups) {
+        top.back() = 1;
+        continue;
+      }
+      count[s * groups + g] += 1;
+      top[s * groups + g] = std::max(top[s * groups + g], (q & ((uint64_t(1) << kShift) - 1)) + 1);
+    }
+  check(MPI_Allreduce(MPI_IN_PLACE, count.data(), int(count.size()), MPI_UINT64_T, MPI_SUM, comm_),
+        "Allreduce");
+  check(MPI_Allreduce(MPI_IN_PLACE, top.data(), int(top.size()), MPI_UINT64_T, MPI_MAX, comm_),
+        "Allreduce");
+  comm_seconds_ += MPI_Wtime() - t0;
+  if (top.back() != 0) return false;  // a number outside the groups
+  if (count != top) return false;     // a gap: some group's indices are not dense
+  index.assign(n, {});
+  counts.assign(n, 0);
+  for (size_t s = 0; s < n; ++s) {
+    std::vector<uint64_t> before(groups, 0);
+    for (size_t g = 0; g < groups; ++g) {
+      before[g] = counts[s];
+      counts[s] += count[s * groups + g];
+    }
+    index[s].resize(sets[s].size());
+    for (size_t i = 0; i < sets[s].size(); ++i) {
+      const uint64_t q = seqOf(s, i);
+      index[s][i] = before[q >> kShift] + (q & ((uint64_t(1) << kShift) - 1));
+    }
+  }
+  return true;
+}
+
 double MpiDomain::sum(double value) {
   const double t0 = MPI_Wtime();
   check(MPI_Allreduce(MPI_IN_PLACE, &value, 1, MPI_DOUBLE, MPI_SUM, comm_), "Allreduce");

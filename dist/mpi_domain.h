@@ -50,6 +50,13 @@ class MpiDomain final : public DomainExchange, public ParticleShare {
   // particles on the others), sent in chunks of 4 MiB.
   void gather(const std::vector<ParticleSet>& sets, std::vector<ParticleSet>& all);
   double sum(double value);
+  // Per set, each particle's index in the whole world as gather() orders
+  // it, so that each process can write its own particles into a file of
+  // the whole world; and per set the whole world's count. False (nothing
+  // set) if the particles' sequence numbers have gaps, which no step
+  // leaves.
+  bool wholeIndex(const std::vector<ParticleSet>& sets, std::vector<std::vector<uint64_t>>& index,
+                  std::vector<uint64_t>& counts);
 
   // Time spent in exchanges with other processes, and bytes sent, so far.
   double commSeconds() const { return comm_seconds_; }

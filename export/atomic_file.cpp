@@ -39,6 +39,15 @@ void writeFileAtomically(const std::string& path,
   });
 }
 
+void moveIntoPlace(const std::string& tmp, const std::string& path) {
+  std::error_code ec;
+  fs::rename(tmp, path, ec);
+  if (!ec) return;
+  std::error_code ignored;
+  fs::remove(tmp, ignored);
+  throw std::runtime_error(path + ": cannot rename into place: " + ec.message());
+}
+
 void makeDirectories(const std::string& path) {
   std::error_code ec;
   fs::create_directories(path, ec);

@@ -17,6 +17,10 @@ void writeFileAtomically(const std::string& path, const std::function<void(std::
 void writeFileViaTemporary(const std::string& path,
                            const std::function<void(const std::string& tmp)>& write_to);
 
+// Renames a temporary written elsewhere (by several processes at once) to
+// `path`; on failure removes it and throws std::runtime_error naming `path`.
+void moveIntoPlace(const std::string& tmp, const std::string& path);
+
 // Creates a directory and its parents; throws std::runtime_error naming it.
 void makeDirectories(const std::string& path);
 

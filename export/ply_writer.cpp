@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <sstream>
 #include <utility>
 #include <vector>
 
@@ -9,20 +10,31 @@
 
 namespace triad {
 
-namespace {
+PlyParticle plyParticle(const ParticleSet& set, size_t i) {
+  const Vec3f& x = set.x[i];
+  const Vec3f& v = set.v[i];
+  return {x.x(),
+          x.y(),
+          x.z(),
+          v.x(),
+          v.y(),
+          v.z(),
+          int32_t(set.object[i]),
+          set.volumeRatio(i),
+          int32_t(set.id[i])};
+}
 
-// One vertex record exactly as laid out in the file.
-#pragma pack(push, 1)
-struct PlyVertex {
-  float x, y, z, vx, vy, vz;
-  int32_t object;
-  float J;
-  int32_t id;
-};
-#pragma pack(pop)
-static_assert(sizeof(PlyVertex) == 36, "PLY vertex must be packed");
-
-}  // namespace
+std::string particlesPlyHeader(size_t n, double time) {
+  std::ostringstream out;
+  out << "ply\nformat binary_little_endian 1.0\n"
+      << "comment triad particles t=" << time << "\n"
+      << "element vertex " << n << "\n"
+      << "property float x\nproperty float y\nproperty float z\n"
+      << "property float vx\nproperty float vy\nproperty float vz\n"
+      << "property int object\nproperty float J\nproperty int id\n"
+      << "end_header\n";
+  return out.str();
+}
 
 std::vector<ParticleRef> particlesById(const World& world) {
   // Ids are unique, so the order is total.
@@ -43,32 +55,21 @@ void writeParticlesPly(const std::string& path, const World& world) {
   static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "PLY writer assumes little-endian");
   const size_t n = world.particleCount();
   writeFileAtomically(path, [&](std::ostream& out) {
-    out << "ply\nformat binary_little_endian 1.0\n"
-        << "comment triad particles t=" << world.time << "\n"
-        << "element vertex " << n << "\n"
-        << "property float x\nproperty float y\nproperty float z\n"
-        << "property float vx\nproperty float vy\nproperty float vz\n"
-        << "property int object\nproperty float J\nproperty int id\n"
-        << "end_header\n";
+    out << particlesPlyHeader(n, world.time);
     const std::vector<ParticleRef> order = particlesById(world);
     // Stream in chunks to bound the temporary memory.
-    std::vector<PlyVertex> chunk;
+    std::vector<PlyParticle> chunk;
     chunk.reserve(65536);
     for (const ParticleRef& r : order) {
-      const ParticleSet& set = world.sets[r.set];
-      const size_t i = r.index;
-      const Vec3f& x = set.x[i];
-      const Vec3f& v = set.v[i];
-      chunk.push_back({x.x(), x.y(), x.z(), v.x(), v.y(), v.z(), int32_t(set.object[i]),
-                       set.volumeRatio(i), int32_t(set.id[i])});
+      chunk.push_back(plyParticle(world.sets[r.set], r.index));
       if (chunk.size() == chunk.capacity()) {
         out.write(reinterpret_cast<const char*>(chunk.data()),
-                  std::streamsize(chunk.size() * sizeof(PlyVertex)));
+                  std::streamsize(chunk.size() * sizeof(PlyParticle)));
         chunk.clear();
       }
     }
     out.write(reinterpret_cast<const char*>(chunk.data()),
-              std::streamsize(chunk.size() * sizeof(PlyVertex)));
+              std::streamsize(chunk.size() * sizeof(PlyParticle)));
   });
 }
 

@@ -11,6 +11,20 @@ namespace triad {
 
 void writeParticlesPly(const std::string& path, const World& world);
 
+// One particle as the file lists it, and the file's header for n particles
+// at `time` (a split run's processes write their particles into one file).
+#pragma pack(push, 1)
+struct PlyParticle {
+  float x, y, z, vx, vy, vz;
+  int32_t object;
+  float J;
+  int32_t id;
+};
+#pragma pack(pop)
+static_assert(sizeof(PlyParticle) == 36, "PLY vertex must be packed");
+PlyParticle plyParticle(const ParticleSet& set, size_t i);
+std::string particlesPlyHeader(size_t n, double time);
+
 // Where each particle is: its set and its index in that set.
 struct ParticleRef {
   uint32_t set = 0;

@@ -42,49 +42,26 @@ void addFrameMetadata(openvdb::MetaMap& meta, const VdbFrameInfo& info, const ch
   if (units) meta.insertMeta("units", openvdb::StringMetadata(units));
 }
 
-// Trilinear (cloud-in-cell) splat of mass and momentum onto voxel centres,
-// which sit at index * h. Serial, in particle order: deterministic bytes.
-// Returns {density in kg/m^3, mass-weighted velocity in m/s}.
-std::pair<FloatGrid::Ptr, Vec3SGrid::Ptr> splatMass(const World& world, double h) {
-  FloatGrid::Ptr mass = FloatGrid::create(0.0f);
-  Vec3SGrid::Ptr momentum = Vec3SGrid::create(openvdb::Vec3s(0.0f));
-  FloatGrid::Accessor ma = mass->getAccessor();
-  Vec3SGrid::Accessor pa = momentum->getAccessor();
-  const double inv_h = 1.0 / h;
-
-  // Scatter each particle's mass and momentum to its 8 surrounding voxels.
-  for (const ParticleSet& set : world.sets) {
-    const double m = set.mass;
-    for (size_t i = 0; i < set.size(); ++i) {
-      int base[3];
-      double w[3][2];
-      for (int d = 0; d < 3; ++d) {
-        const double g = double(set.x[i][d]) * inv_h;
-        const double b = std::floor(g);
-        base[d] = static_cast<int>(b);
-        w[d][1] = g - b;
-        w[d][0] = 1.0 - w[d][1];
-      }
-      const openvdb::Vec3d p = openvdb::Vec3d(set.v[i].x(), set.v[i].y(), set.v[i].z()) * m;
-      for (int c = 0; c < 8; ++c) {
-        const int a = (c >> 2) & 1, b = (c >> 1) & 1, e = c & 1;
-        const double wc = w[0][a] * w[1][b] * w[2][e];
-        if (wc <= 0.0) continue;  // a particle exactly on a voxel centre
-        const Coord ijk(base[0] + a, base[1] + b, base[2] + e);
-        ma.setValue(ijk, ma.getValue(ijk) + float(wc * m));
-        pa.setValue(ijk, pa.getValue(ijk) + openvdb::Vec3s(p * wc));
-      }
-    }
+// The grids of summed mass and momentum: momentum to velocity, mass to
+// density, voxel by voxel. Returns {density in kg/m^3, mass-weighted
+// velocity in m/s}.
+std::pair<FloatGrid::Ptr, Vec3SGrid::Ptr> gridsOfSums(const std::vector<VoxelSum>& sums,
+                                                      const VolumeScale& scale, double h) {
+  FloatGrid::Ptr density = FloatGrid::create(0.0f);
+  Vec3SGrid::Ptr velocity = Vec3SGrid::create(openvdb::Vec3s(0.0f));
+  FloatGrid::Accessor da = density->getAccessor();
+  Vec3SGrid::Accessor va = velocity->getAccessor();
+  const double inv_volume = 1.0 / (h * h * h);
+  for (const VoxelSum& v : sums) {
+    const Coord ijk(v.ijk[0], v.ijk[1], v.ijk[2]);
+    const double m = double(v.m) / scale.mass;
+    da.setValue(ijk, float(m * inv_volume));
+    openvdb::Vec3s u(0.0f);
+    if (m > 0.0)
+      for (int d = 0; d < 3; ++d) u[d] = float(double(v.p[d]) / scale.momentum / m);
+    va.setValue(ijk, u);
   }
-
-  // Momentum to velocity, then mass to density, voxel by voxel.
-  for (auto it = momentum->beginValueOn(); it; ++it) {
-    const float vm = ma.getValue(it.getCoord());
-    it.setValue(vm > 0.0f ? *it / vm : openvdb::Vec3s(0.0f));
-  }
-  const float inv_volume = float(1.0 / (h * h * h));
-  for (auto it = mass->beginValueOn(); it; ++it) it.setValue(*it * inv_volume);
-  return {mass, momentum};
+  return {density, velocity};
 }
 
 // 64-bit FNV-1a over a byte range, continuing from `h`.
@@ -127,12 +104,99 @@ void makeUuidDeterministic(const std::string& file) {
 
 }  // namespace
 
+VolumeScale volumeScale(double max_mass, double max_momentum) {
+  // Each contribution is at most 2^46 units: a voxel may sum 2^17 of them
+  // (a voxel of 4 cells at 8 particles a cell takes about 4,000).
+  auto unit = [](double largest) {
+    if (!(largest > 0.0) || !std::isfinite(largest)) return std::ldexp(1.0, 46);
+    int e = 0;
+    std::frexp(largest, &e);  // largest < 2^e
+    return std::ldexp(1.0, 46 - e);
+  };
+  return {unit(max_mass), unit(max_momentum)};
+}
+
+void largestMassAndMomentum(const World& world, double& mass, double& momentum) {
+  mass = momentum = 0.0;
+  for (const ParticleSet& set : world.sets) {
+    if (set.size() == 0) continue;
+    mass = std::max(mass, double(set.mass));
+    float v = 0.0f;
+    for (const Vec3f& u : set.v) v = std::max(v, u.cwiseAbs().maxCoeff());
+    momentum = std::max(momentum, double(set.mass) * double(v));
+  }
+}
+
+std::vector<VoxelSum> splatVolumeSums(const World& world, double h, const VolumeScale& scale) {
+  // Each voxel's place in `sums`, through a tree of indices.
+  openvdb::Int32Grid::Ptr index = openvdb::Int32Grid::create(-1);
+  openvdb::Int32Grid::Accessor ia = index->getAccessor();
+  std::vector<VoxelSum> sums;
+  const double inv_h = 1.0 / h;
+  // Scatter each particle's mass and momentum to its 8 surrounding voxels.
+  for (const ParticleSet& set : world.sets) {
+    const double m = set.mass;
+    for (size_t i = 0; i < set.size(); ++i) {
+      int base[3];
+      double w[3][2];
+      for (int d = 0; d < 3; ++d) {
+        const double g = double(set.x[i][d]) * inv_h;
+        const double b = std::floor(g);
+        base[d] = static_cast<int>(b);
+        w[d][1] = g - b;
+        w[d][0] = 1.0 - w[d][1];
+      }
+      for (int c = 0; c < 8; ++c) {
+        const int a = (c >> 2) & 1, b = (c >> 1) & 1, e = c & 1;
+        const double wc = w[0][a] * w[1][b] * w[2][e];
+        if (wc <= 0.0) continue;  // a particle exactly on a voxel centre
+        const Coord ijk(base[0] + a, base[1] + b, base[2] + e);
+        int32_t k = ia.getValue(ijk);
+        if (k < 0) {
+          k = int32_t(sums.size());
+          ia.setValue(ijk, k);
+          sums.push_back({{ijk.x(), ijk.y(), ijk.z()}, 0, 0, {0, 0, 0}});
+        }
+        VoxelSum& v = sums[size_t(k)];
+        v.m += std::llround(wc * m * scale.mass);
+        for (int d = 0; d < 3; ++d)
+          v.p[d] += std::llround(wc * m * double(set.v[i][d]) * scale.momentum);
+      }
+    }
+  }
+  std::sort(sums.begin(), sums.end(), voxelBefore);
+  return sums;
+}
+
+void addVolumeSums(std::vector<VoxelSum>& sums) {
+  std::sort(sums.begin(), sums.end(), voxelBefore);
+  size_t out = 0;
+  for (size_t i = 0; i < sums.size(); ++i) {
+    if (out > 0 && !voxelBefore(sums[out - 1], sums[i])) {
+      VoxelSum& v = sums[out - 1];
+      v.m += sums[i].m;
+      for (int d = 0; d < 3; ++d) v.p[d] += sums[i].p[d];
+    } else {
+      sums[out++] = sums[i];
+    }
+  }
+  sums.resize(out);
+}
+
 void writeVolumesVdb(const std::string& path, const World& world, const VdbFrameInfo& info) {
+  double mass, momentum;
+  largestMassAndMomentum(world, mass, momentum);
+  const VolumeScale scale = volumeScale(mass, momentum);
+  writeVolumesVdb(path, splatVolumeSums(world, info.voxel_size, scale), scale, world, info);
+}
+
+void writeVolumesVdb(const std::string& path, const std::vector<VoxelSum>& sums,
+                     const VolumeScale& scale, const World& world, const VdbFrameInfo& info) {
   if (!(info.voxel_size > 0.0)) throw std::runtime_error(path + ": voxel size must be positive");
   initOpenVdb();
 
   // Density and velocity from one splat, on a transform shared by both.
-  auto [density, velocity] = splatMass(world, info.voxel_size);
+  auto [density, velocity] = gridsOfSums(sums, scale, info.voxel_size);
   const openvdb::math::Transform::Ptr xform =
       openvdb::math::Transform::createLinearTransform(info.voxel_size);
   density->setTransform(xform);

@@ -1,0 +1,295 @@
+// A split run's frame files that every process writes at once, each its own
+// particles, into one file of the whole world (MPI-IO): the particle cache
+// and the checkpoint. Process 0 then holds no other process's particles for
+// them. The files are the bytes a single process writes.
+#include <unistd.h>
+
+#include <algorithm>
+#include <climits>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <numeric>
+#include <stdexcept>
+
+#include "app/run_split.h"
+#include "export/checkpoint.h"
+#include "export/ply_writer.h"
+#include "sim/world.h"
+
+#ifdef TRIAD_HAVE_MPI
+#include "dist/mpi_domain.h"
+#endif
+
+namespace triad {
+
+#ifdef TRIAD_HAVE_MPI
+
+namespace {
+
+namespace fs = std::filesystem;
+
+__extension__ typedef unsigned __int128 Wide;  // GCC and clang's 128-bit integer
+
+constexpr size_t kChunkBytes = size_t(4) << 20;  // what each process packs before a write
+
+// One file that every process writes into at once, each its own bytes.
+class SharedFile {
+ public:
+  SharedFile(const std::string& path, uint64_t bytes) : path_(path) {
+    open_ = MPI_File_open(MPI_COMM_WORLD, path.c_str(), MPI_MODE_CREATE | MPI_MODE_WRONLY,
+                          MPI_INFO_NULL, &file_) == MPI_SUCCESS;
+    int all = open_;
+    MPI_Allreduce(MPI_IN_PLACE, &all, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+    if (!all) {
+      if (open_) MPI_File_close(&file_);
+      open_ = false;
+      throw std::runtime_error(path + ": cannot open for writing by every process");
+    }
+    // Exactly this long, whatever a file of the name held before.
+    ok_ = MPI_File_set_size(file_, MPI_Offset(bytes)) == MPI_SUCCESS;
+  }
+  ~SharedFile() {
+    if (open_) MPI_File_close(&file_);
+  }
+  SharedFile(const SharedFile&) = delete;
+  SharedFile& operator=(const SharedFile&) = delete;
+
+  void write(uint64_t offset, const void* data, size_t n) {
+    const auto* p = static_cast<const char*>(data);
+    for (size_t done = 0; ok_ && done < n;) {
+      const size_t m = std::min(n - done, size_t(1) << 30);  // MPI counts are ints
+      MPI_Status status;
+      ok_ = MPI_File_write_at(file_, MPI_Offset(offset + done), p + done, int(m), MPI_BYTE,
+                              &status) == MPI_SUCCESS;
+      done += m;
+    }
+  }
+  // Closes the file on every process; throws on all of them if any failed
+  // to write its part (the caller removes the file).
+  void close() {
+    ok_ = MPI_File_close(&file_) == MPI_SUCCESS && ok_;
+    open_ = false;
+    int all = ok_;
+    MPI_Allreduce(MPI_IN_PLACE, &all, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+    if (!all) throw std::runtime_error(path_ + ": write failed on a process (disk full?)");
+  }
+
+ private:
+  std::string path_;
+  MPI_File file_{};
+  bool open_ = false, ok_ = false;
+};
+
+// Writes into `file` and `sum` runs of entries that lie next to each other
+// in the whole world: entry `place` at base + place * entry bytes, packed
+// a chunk at a time. `order`: this process's entries by place.
+template <typename Get>
+void writeRuns(SharedFile& file, FileChecksum& sum, uint64_t base, size_t entry,
+               const std::vector<uint64_t>& places, const std::vector<uint32_t>& order, Get get) {
+  std::vector<unsigned char> chunk;
+  uint64_t first = 0;
+  auto flush = [&] {
+    if (chunk.empty()) return;
+    file.write(base + first * entry, chunk.data(), chunk.size());
+    sum.add(base + first * entry, chunk.data(), chunk.size());
+    chunk.clear();
+  };
+  for (size_t k = 0; k < order.size(); ++k) {
+    const uint64_t place = places[order[k]];
+    if (chunk.empty() || place != first + chunk.size() / entry || chunk.size() >= kChunkBytes) {
+      flush();
+      first = place;
+    }
+    const size_t at = chunk.size();
+    chunk.resize(at + entry);
+    get(order[k], chunk.data() + at);
+  }
+  flush();
+}
+
+// The temporary beside `path` that process 0's writer renames into place:
+// named by process 0's id, as a single process names its temporaries.
+std::string sharedTemporary(MpiDomain& domain, bool root, const std::string& path) {
+  std::vector<int64_t> pid;
+  if (root) pid.push_back(int64_t(::getpid()));
+  pid = allGatherValues(domain, pid);
+  return path + ".tmp" + std::to_string(pid.at(0));
+}
+
+}  // namespace
+
+void RunSplit::checkSharedFolder(const std::string& out_dir) {
+  shared_files_ = false;
+  if (!domain_) return;
+  // Process 0 leaves a note in the folder; every process must read it.
+  const std::string note = sharedTemporary(*domain_, root(), out_dir + "/.processes");
+  std::string token = std::to_string(::getpid()) + " " + std::to_string(MPI_Wtime());
+  std::vector<char> sent(token.begin(), token.end());
+  if (root()) std::ofstream(note) << token;
+  sent = allGatherValues(*domain_, root() ? sent : std::vector<char>());
+  token.assign(sent.begin(), sent.end());
+  MPI_Barrier(MPI_COMM_WORLD);
+  std::string seen;
+  std::getline(std::ifstream(note), seen);
+  int all = seen == token;
+  MPI_Allreduce(MPI_IN_PLACE, &all, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+  if (root()) {
+    std::error_code ignored;
+    fs::remove(note, ignored);
+  }
+  shared_files_ = all != 0;
+}
+
+std::string RunSplit::writeCheckpointShared(const std::string& path, int frame,
+                                            const std::string& scene_hash, const World& world,
+                                            const SolverState& state, const StepRecord& record) {
+  std::vector<std::vector<uint64_t>> places;
+  std::vector<uint64_t> counts;
+  if (!domain_->wholeIndex(world.sets, places, counts))
+    throw std::logic_error("MPI: the particles' places in the whole world have gaps");
+  // Where process 0 puts the particle arrays, for everyone.
+  CheckpointLayout layout;
+  std::vector<uint64_t> where;
+  if (root()) {
+    layout = layoutCheckpoint(frame, scene_hash, world, state, record, counts);
+    for (const auto& a : layout.arrays) where.insert(where.end(), a.begin(), a.end());
+    where.push_back(layout.bytes);
+  }
+  where = allGatherValues(*domain_, where);
+  const uint64_t bytes = where.back();
+  const std::string tmp = sharedTemporary(*domain_, root(), path);
+  FileChecksum sum;
+  try {
+    SharedFile file(tmp, bytes);
+    if (root())
+      for (const CheckpointLayout::Piece& p : layout.pieces) {
+        file.write(p.offset, p.bytes.data(), p.bytes.size());
+        sum.add(p.offset, p.bytes.data(), p.bytes.size());
+      }
+    for (size_t s = 0; s < world.sets.size(); ++s) {
+      const ParticleSet& set = world.sets[s];
+      std::vector<uint32_t> order(set.size());
+      std::iota(order.begin(), order.end(), 0u);
+      std::sort(order.begin(), order.end(),
+                [&](uint32_t a, uint32_t b) { return places[s][a] < places[s][b]; });
+      const void* data[7] = {set.x.data(), set.v.data(),  set.C.data(),     set.F.data(),
+                             set.J.data(), set.id.data(), set.object.data()};
+      const bool has[7] = {true, true, true, !set.F.empty(), !set.J.empty(), true, true};
+      for (size_t a = 0; a < 7; ++a) {
+        if (!has[a] || set.size() == 0) continue;
+        const size_t e = size_t(kCheckpointEntryBytes[a]);
+        const auto* src = static_cast<const unsigned char*>(data[a]);
+        writeRuns(
+            file, sum, where[s * 7 + a], e, places[s], order,
+            [&](uint32_t i, unsigned char* out) { std::memcpy(out, src + size_t(i) * e, e); });
+      }
+    }
+    // The trailer, from every process's part of the checksum.
+    const std::vector<uint64_t> parts =
+        allGatherValues(*domain_, std::vector<uint64_t>{sum.part()});
+    if (root()) {
+      FileChecksum whole;
+      for (const uint64_t p : parts) whole.merge(p);
+      const auto trailer = checkpointTrailer(whole, bytes - 16);
+      file.write(bytes - 16, trailer.data(), trailer.size());
+    }
+    file.close();
+  } catch (const std::exception& e) {
+    if (root()) {
+      std::error_code ignored;
+      fs::remove(tmp, ignored);
+    }
+    throw std::runtime_error(std::string(e.what()));
+  }
+  return tmp;
+}
+
+std::string RunSplit::writeParticlesShared(const std::string& path, const World& world) {
+  // The ids are cut into runs of about equal count, one per process in
+  // order; each process sorts the particles it is sent, and the runs lie in
+  // the file in process order: the file lists every particle by id.
+  const size_t procs = size_t(size_), buckets = 256 * procs;
+  uint64_t top = 0, mine = 0;
+  for (const ParticleSet& s : world.sets)
+    for (const uint32_t id : s.id) top = std::max<uint64_t>(top, id + 1);
+  std::vector<uint64_t> limit{top};
+  MPI_Allreduce(MPI_IN_PLACE, limit.data(), 1, MPI_UINT64_T, MPI_MAX, MPI_COMM_WORLD);
+  const uint64_t span = std::max<uint64_t>(1, limit[0]);
+  auto bucketOf = [&](uint32_t id) { return size_t(Wide(id) * buckets / span); };
+  std::vector<uint64_t> per_bucket(buckets, 0);
+  for (const ParticleSet& s : world.sets)
+    for (const uint32_t id : s.id) ++per_bucket[bucketOf(id)];
+  MPI_Allreduce(MPI_IN_PLACE, per_bucket.data(), int(buckets), MPI_UINT64_T, MPI_SUM,
+                MPI_COMM_WORLD);
+  const uint64_t total = std::accumulate(per_bucket.begin(), per_bucket.end(), uint64_t(0));
+  std::vector<int> owner(buckets);
+  for (size_t b = 0, before = 0; b < buckets; before += per_bucket[b], ++b)
+    owner[b] = int(std::min<uint64_t>(procs - 1, total ? before * procs / total : 0));
+  // Each particle's record to the process of its id's run.
+  std::vector<std::vector<PlyParticle>> out(procs);
+  for (const ParticleSet& s : world.sets)
+    for (size_t i = 0; i < s.size(); ++i) {
+      out[size_t(owner[bucketOf(s.id[i])])].push_back(plyParticle(s, i));
+      ++mine;
+    }
+  std::vector<int> send(procs), recv(procs), sdisp(procs), rdisp(procs);
+  std::vector<PlyParticle> packed;
+  packed.reserve(mine);
+  for (size_t r = 0; r < procs; ++r) {
+    sdisp[r] = int(packed.size() * sizeof(PlyParticle));
+    send[r] = int(out[r].size() * sizeof(PlyParticle));
+    packed.insert(packed.end(), out[r].begin(), out[r].end());
+    out[r] = {};
+  }
+  if (packed.size() * sizeof(PlyParticle) > size_t(INT_MAX))
+    throw std::runtime_error("MPI: a process's particle records pass 2 GiB");
+  MPI_Alltoall(send.data(), 1, MPI_INT, recv.data(), 1, MPI_INT, MPI_COMM_WORLD);
+  size_t received = 0;
+  for (size_t r = 0; r < procs; ++r) {
+    rdisp[r] = int(received);
+    received += size_t(recv[r]);
+  }
+  if (received > size_t(INT_MAX)) throw std::runtime_error("MPI: particle records pass 2 GiB");
+  std::vector<PlyParticle> run(received / sizeof(PlyParticle));
+  MPI_Alltoallv(packed.data(), send.data(), sdisp.data(), MPI_BYTE, run.data(), recv.data(),
+                rdisp.data(), MPI_BYTE, MPI_COMM_WORLD);
+  packed = {};
+  std::sort(run.begin(), run.end(),
+            [](const PlyParticle& a, const PlyParticle& b) { return a.id < b.id; });
+  uint64_t count = run.size(), before = 0;
+  MPI_Exscan(&count, &before, 1, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
+  if (root()) before = 0;  // MPI_Exscan leaves process 0's undefined
+  const std::string header = particlesPlyHeader(size_t(total), world.time);
+  const uint64_t bytes = header.size() + total * sizeof(PlyParticle);
+  const std::string tmp = sharedTemporary(*domain_, root(), path);
+  try {
+    SharedFile file(tmp, bytes);
+    if (root()) file.write(0, header.data(), header.size());
+    file.write(header.size() + before * sizeof(PlyParticle), run.data(),
+               run.size() * sizeof(PlyParticle));
+    file.close();
+  } catch (const std::exception& e) {
+    if (root()) {
+      std::error_code ignored;
+      fs::remove(tmp, ignored);
+    }
+    throw std::runtime_error(std::string(e.what()));
+  }
+  return tmp;
+}
+
+#else  // built without MPI: a run is never split
+
+void RunSplit::checkSharedFolder(const std::string&) {}
+std::string RunSplit::writeCheckpointShared(const std::string&, int, const std::string&,
+                                            const World&, const SolverState&, const StepRecord&) {
+  throw std::logic_error("writeCheckpointShared without MPI");
+}
+std::string RunSplit::writeParticlesShared(const std::string&, const World&) {
+  throw std::logic_error("writeParticlesShared without MPI");
+}
+
+#endif
+
+}  // namespace triad
