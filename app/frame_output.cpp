@@ -237,14 +237,14 @@ void writeCachePvd(const SceneDesc& scene, const std::string& out_dir, int frame
 std::vector<std::pair<int, TriSurface>> writeFrameCaches(const SceneDesc& scene,
                                                          const std::string& out_dir,
                                                          const World& world, int frame,
-                                                         const std::string& particles_written) {
+                                                         const SharedWrites& shared) {
   std::vector<std::pair<int, TriSurface>> surfaces;
   const bool vtk = scene.output.vtk;
   // The VDB voxel, which also bounds the surfaces' level-set voxel.
   const double voxel =
       scene.output.vdb_voxel_size > 0 ? scene.output.vdb_voxel_size : scene.domain.dx;
-  if (!particles_written.empty())
-    moveIntoPlace(particles_written, particlesPath(out_dir, frame));
+  if (!shared.particles.empty())
+    moveIntoPlace(shared.particles, particlesPath(out_dir, frame));
   else if (scene.output.ply)
     writeParticlesPly(particlesPath(out_dir, frame), world);
   if (vtk) writeParticlesVtp(frameName(vtkDir(out_dir), "particles", frame, "vtp"), world);
@@ -255,7 +255,11 @@ std::vector<std::pair<int, TriSurface>> writeFrameCaches(const SceneDesc& scene,
     info.scene_name = scene.name;
     info.voxel_size = voxel;
     info.surface = scene.output.vdb_surface;
-    writeVolumesVdb(volumesPath(out_dir, frame), world, info);
+    if (shared.volumes)
+      writeVolumesVdb(volumesPath(out_dir, frame), shared.volumes->sums, shared.volumes->scale,
+                      world, info);
+    else
+      writeVolumesVdb(volumesPath(out_dir, frame), world, info);
   }
   const bool preview_surfaces = scene.output.png && scene.render.style == RenderStyle::Surface;
   if (scene.output.surface_mesh || preview_surfaces) {

@@ -2,12 +2,14 @@
 // The files of one frame (particles, volumes, rigid bodies, checkpoint) and
 // finding where a killed run can resume. runScene (app/run_scene.cpp) calls
 // these in order.
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "export/body_writer.h"
 #include "export/checkpoint.h"
+#include "export/vdb_writer.h"
 #include "sim/scene_desc.h"
 #include "sim/solver.h"
 #include "sim/world.h"
@@ -41,9 +43,15 @@ struct BodyLogs {
 void makeOutputDirectories(const SceneDesc& scene, const std::string& out_dir);
 
 // A split run's frame files that its processes wrote together: the
-// temporaries to rename into place (empty: not written that way).
+// temporaries to rename into place (empty: not written that way), and the
+// volumes' sums they splatted (null: splat the world's particles).
 struct SharedWrites {
   std::string particles, checkpoint;
+  struct Volumes {
+    std::vector<VoxelSum> sums;
+    VolumeScale scale;
+  };
+  std::shared_ptr<const Volumes> volumes;
 };
 
 // Writes the frame's cache files that the scene asks for: PLY particles, the
@@ -54,11 +62,11 @@ struct SharedWrites {
 // Returns the material surfaces it made (material index, mesh): with
 // output.surface_mesh, or previews (output.png) in render.style "surface";
 // else none.
-// `particles_written`: the particle cache's temporary, already written.
+// `shared`: what the processes of a split run wrote or splatted already.
 std::vector<std::pair<int, TriSurface>> writeFrameCaches(const SceneDesc& scene,
                                                          const std::string& out_dir,
                                                          const World& world, int frame,
-                                                         const std::string& particles_written = "");
+                                                         const SharedWrites& shared = {});
 
 // Writes the frame's rigid body caches: every body's surface, then the state
 // table with this frame's rows recorded in `logs`, and for frames after the

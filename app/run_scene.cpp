@@ -350,7 +350,7 @@ int runScene(const RunOptions& options_in) {
                              const std::vector<BodyLoad>& loads, const SolverState& solver_state,
                              const SharedWrites& shared) {
     // Particles (PLY), volumes (VDB), rigid body meshes and states.
-    const auto surfaces = writeFrameCaches(scene, out_dir, w, frame, shared.particles);
+    const auto surfaces = writeFrameCaches(scene, out_dir, w, frame, shared);
     writeFrameBodies(out_dir, w, frame, body_logs, loads);
     // The preview render (rigid bodies drawn as meshes; with render.style
     // "surface" the materials' surfaces instead of their particles).
@@ -375,11 +375,39 @@ int runScene(const RunOptions& options_in) {
   };
   // What process 0 needs every particle for: the outputs that sample or
   // draw them all at once (the particle cache and the checkpoint too where
-  // the processes cannot write one file together).
+  // the processes cannot write one file together). The volumes' density
+  // and velocity are splatted by each process and added up.
   const bool shared_files = split.active() && split.sharedFiles();
-  const bool gather_particles = scene.output.png || scene.output.vdb || scene.output.vtk ||
-                                scene.output.surface_mesh ||
-                                (!shared_files && (scene.output.ply || scene.output.checkpoints));
+  const bool shared_volumes = split.active() && scene.output.vdb;
+  const double vdb_voxel =
+      scene.output.vdb_voxel_size > 0 ? scene.output.vdb_voxel_size : scene.domain.dx;
+  // Previews and surfaces read positions alone; the VTK files, and a
+  // particle cache or checkpoint process 0 writes alone, every attribute.
+  const bool whole =
+      scene.output.vtk || (!shared_files && (scene.output.ply || scene.output.checkpoints));
+  const bool positions = scene.output.png || scene.output.surface_mesh ||
+                         (scene.output.vdb && scene.output.vdb_surface);
+  const RunSplit::Gather gather = whole       ? RunSplit::Gather::Whole
+                                  : positions ? RunSplit::Gather::Positions
+                                              : RunSplit::Gather::None;
+  if (split.active()) {
+    const OutputDesc& o = scene.output;
+    for (const auto& [on, together, name] : {std::tuple{o.ply, shared_files, "particles"},
+                                             {o.vdb, true, "volumes"},
+                                             {o.checkpoints, shared_files, "checkpoints"}})
+      if (on && together) rec.mpi_files_together.push_back(name);
+    // What process 0 gathers every particle for, and how much of each.
+    for (const auto& [on, name] : {std::pair{o.png, "previews"},
+                                   {o.surface_mesh, "surfaces"},
+                                   {o.vdb && o.vdb_surface, "volumes' surface"},
+                                   {o.vtk, "vtk"},
+                                   {o.ply && !shared_files, "particles"},
+                                   {o.checkpoints && !shared_files, "checkpoints"}})
+      if (on) rec.mpi_gathered_for.push_back(name);
+    rec.mpi_gathered = gather == RunSplit::Gather::Whole       ? "every attribute"
+                       : gather == RunSplit::Gather::Positions ? "positions and objects"
+                                                               : "nothing";
+  }
   auto writeFrame = [&](int frame) {
     const double t0 = omp_get_wtime();
     SimState sim = simState();
@@ -393,12 +421,17 @@ int runScene(const RunOptions& options_in) {
     if (shared_files && scene.output.checkpoints)
       shared.checkpoint = split.writeCheckpointShared(
           checkpointPath(out_dir, frame), frame, checkpoint_key, world, solver.state(), sim.steps);
+    if (shared_volumes) {
+      auto volumes = std::make_shared<SharedWrites::Volumes>();
+      volumes->sums = split.splatVolumesShared(world, vdb_voxel, volumes->scale);
+      shared.volumes = std::move(volumes);
+    }
     // The frame's state; the world itself is copied only when the solver
     // steps on while it is written. Split over processes, process 0 gathers
     // every particle into a copy of its own where an output needs them all,
     // and alone writes.
     std::shared_ptr<const World> w =
-        split.active() ? split.gather(world, gather_particles)
+        split.active() ? split.gather(world, gather)
         : overlap      ? std::make_shared<const World>(world)
                        : std::shared_ptr<const World>(&world, [](const World*) {});
     split.record(rec, world);

@@ -70,10 +70,11 @@ void RunSplit::rebalance(World& world) {
   if (domain_) domain_->balance(world.sets);
 }
 
-std::shared_ptr<const World> RunSplit::gather(World& world, bool particles) {
+std::shared_ptr<const World> RunSplit::gather(World& world, Gather what) {
   if (!domain_) return nullptr;
   std::vector<ParticleSet> all;
-  if (particles) domain_->gather(world.sets, all);
+  const bool particles = what != Gather::None;
+  if (particles) domain_->gather(world.sets, all, what == Gather::Positions);
   if (!root()) return nullptr;
   // Everything else is whole on every process: a copy of this one's world
   // with the gathered particles (or none) in place of its share, which is
@@ -193,7 +194,7 @@ ParticleShare* RunSplit::share(const SceneDesc&) {
 }
 void RunSplit::attach(World&, Solver&, bool) {}
 void RunSplit::rebalance(World&) {}
-std::shared_ptr<const World> RunSplit::gather(World&, bool) {
+std::shared_ptr<const World> RunSplit::gather(World&, Gather) {
   return nullptr;
 }
 double RunSplit::sum(double value) {

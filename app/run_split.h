@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 namespace triad {
 
@@ -16,6 +17,8 @@ class Solver;
 struct RunRecord;
 struct SolverState;
 struct StepRecord;
+struct VoxelSum;
+struct VolumeScale;
 class MpiDomain;
 
 class RunSplit {
@@ -46,10 +49,16 @@ class RunSplit {
   void attach(World& world, Solver& solver, bool follow_work = false);
   // Moves the split to where the particles are now (each frame).
   void rebalance(World& world);
+  // What process 0 needs of every particle for a frame's files.
+  enum class Gather {
+    None,       // nothing: a copy of its world without particles
+    Positions,  // positions and objects (previews, surfaces)
+    Whole       // every attribute
+  };
   // The world with every process's particles, on process 0 (null on the
-  // others); without `particles`, a copy of process 0's world without any.
-  // The world's own particles are set aside while it is copied, not copied.
-  std::shared_ptr<const World> gather(World& world, bool particles = true);
+  // others). The world's own particles are set aside while it is copied,
+  // not copied.
+  std::shared_ptr<const World> gather(World& world, Gather what = Gather::Whole);
   // Whether every process sees the cache folder (a file system they share):
   // each then writes its own particles into the frame's particle cache and
   // checkpoint (app/split_files.cpp), and process 0 gathers none for them.
@@ -65,6 +74,10 @@ class RunSplit {
                                     const std::string& scene_hash, const World& world,
                                     const SolverState& state, const StepRecord& record);
   std::string writeParticlesShared(const std::string& path, const World& world);
+  // Collective: the volumes' sums (export/vdb_writer.h) of every process's
+  // particles on voxels of size h, added up on process 0 (empty on the
+  // others), and the scale they share.
+  std::vector<VoxelSum> splatVolumesShared(const World& world, double h, VolumeScale& scale);
   // Sums over processes.
   double sum(double value);
   // The largest pending signal of any process (0: none).

@@ -1,7 +1,9 @@
 // A split run's frame files that every process writes at once, each its own
 // particles, into one file of the whole world (MPI-IO): the particle cache
-// and the checkpoint. Process 0 then holds no other process's particles for
-// them. The files are the bytes a single process writes.
+// and the checkpoint; and the volumes, which each process splats of its own
+// particles for process 0 to add up. Process 0 then holds no other
+// process's particles for them. The files are the bytes a single process
+// writes.
 #include <unistd.h>
 
 #include <algorithm>
@@ -15,6 +17,7 @@
 #include "app/run_split.h"
 #include "export/checkpoint.h"
 #include "export/ply_writer.h"
+#include "export/vdb_writer.h"
 #include "sim/world.h"
 
 #ifdef TRIAD_HAVE_MPI
@@ -279,6 +282,40 @@ std::string RunSplit::writeParticlesShared(const std::string& path, const World&
   return tmp;
 }
 
+std::vector<VoxelSum> RunSplit::splatVolumesShared(const World& world, double h,
+                                                   VolumeScale& scale) {
+  // One scale for all, from the largest mass and momentum of any process.
+  double largest[2];
+  largestMassAndMomentum(world, largest[0], largest[1]);
+  MPI_Allreduce(MPI_IN_PLACE, largest, 2, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+  scale = volumeScale(largest[0], largest[1]);
+  std::vector<VoxelSum> sums = splatVolumeSums(world, h, scale);
+  // To process 0 a chunk at a time, where the voxels that several
+  // processes' particles reach are added up (exactly, in fixed point).
+  constexpr int kTag = 9;
+  const size_t per_chunk = kChunkBytes / sizeof(VoxelSum);
+  uint64_t count = sums.size();
+  std::vector<uint64_t> counts(root() ? size_t(size_) : 0);
+  MPI_Gather(&count, 1, MPI_UINT64_T, counts.data(), 1, MPI_UINT64_T, 0, MPI_COMM_WORLD);
+  if (!root()) {
+    for (size_t first = 0; first < sums.size(); first += per_chunk) {
+      const size_t n = std::min(per_chunk, sums.size() - first);
+      MPI_Send(sums.data() + first, int(n * sizeof(VoxelSum)), MPI_BYTE, 0, kTag, MPI_COMM_WORLD);
+    }
+    return {};
+  }
+  for (int r = 1; r < size_; ++r)
+    for (size_t first = 0; first < counts[size_t(r)]; first += per_chunk) {
+      const size_t n = std::min<size_t>(per_chunk, counts[size_t(r)] - first);
+      const size_t at = sums.size();
+      sums.resize(at + n);
+      MPI_Recv(sums.data() + at, int(n * sizeof(VoxelSum)), MPI_BYTE, r, kTag, MPI_COMM_WORLD,
+               MPI_STATUS_IGNORE);
+    }
+  addVolumeSums(sums);
+  return sums;
+}
+
 #else  // built without MPI: a run is never split
 
 void RunSplit::checkSharedFolder(const std::string&) {}
@@ -288,6 +325,9 @@ std::string RunSplit::writeCheckpointShared(const std::string&, int, const std::
 }
 std::string RunSplit::writeParticlesShared(const std::string&, const World&) {
   throw std::logic_error("writeParticlesShared without MPI");
+}
+std::vector<VoxelSum> RunSplit::splatVolumesShared(const World&, double, VolumeScale&) {
+  throw std::logic_error("splatVolumesShared without MPI");
 }
 
 #endif

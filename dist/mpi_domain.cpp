@@ -4,6 +4,7 @@
 #include <climits>
 #include <cstdlib>
 #include <cstring>
+#include <numeric>
 #include <stdexcept>
 #include <thread>
 
@@ -673,20 +674,31 @@ double MpiDomain::sum(double value) {
   return value;
 }
 
-void MpiDomain::gather(const std::vector<ParticleSet>& sets, std::vector<ParticleSet>& all) {
+void MpiDomain::gather(const std::vector<ParticleSet>& sets, std::vector<ParticleSet>& all,
+                       bool positions) {
   const double t0 = MPI_Wtime();
   constexpr int kTag = 7;
   all = emptyLike(sets);
   for (size_t s = 0; s < sets.size(); ++s) {
     const ParticleSet& set = sets[s];
-    const size_t record = recordBytes(set);
+    // With `positions`, a particle's position and object alone.
+    const size_t record =
+        positions ? sizeof(Vec3f) + sizeof(uint16_t) + sizeof(uint64_t) : recordBytes(set);
     const size_t per_chunk = std::max<size_t>(1, gather_chunk_ / record);
     const bool numbered = !seq_fresh_ && s < seq_.size() && seq_[s].size() == set.size();
     std::vector<unsigned char> chunk;
     auto pack = [&](size_t first, size_t n) {
       chunk.clear();
-      for (size_t i = first; i < first + n; ++i)
-        packParticle(set, i, numbered ? seq_[s][i] : uint64_t(rank_) << 40 | i, chunk);
+      for (size_t i = first; i < first + n; ++i) {
+        const uint64_t seq = numbered ? seq_[s][i] : uint64_t(rank_) << 40 | i;
+        if (!positions) {
+          packParticle(set, i, seq, chunk);
+          continue;
+        }
+        put(chunk, set.x[i]);
+        put(chunk, set.object[i]);
+        put(chunk, seq);
+      }
     };
     uint64_t count = set.size();
     std::vector<uint64_t> counts(rank_ == 0 ? size_t(size_) : 0);
@@ -703,7 +715,12 @@ void MpiDomain::gather(const std::vector<ParticleSet>& sets, std::vector<Particl
     ParticleSet& out = all[s];
     uint64_t total = 0;
     for (const uint64_t c : counts) total += c;
-    out.reserve(total);
+    if (positions) {
+      out.x.reserve(total);
+      out.object.reserve(total);
+    } else {
+      out.reserve(total);
+    }
     std::vector<uint64_t> seq;
     seq.reserve(total);
     for (int r = 0; r < size_; ++r)
@@ -718,11 +735,34 @@ void MpiDomain::gather(const std::vector<ParticleSet>& sets, std::vector<Particl
                 "Recv");
         }
         const unsigned char* p = chunk.data();
-        for (size_t j = 0; j < n; ++j) unpackParticle(out, seq, p);
+        for (size_t j = 0; j < n; ++j) {
+          if (!positions) {
+            unpackParticle(out, seq, p);
+            continue;
+          }
+          out.x.push_back(take<Vec3f>(p));
+          out.object.push_back(take<uint16_t>(p));
+          seq.push_back(take<uint64_t>(p));
+        }
       }
     // In the order one process would hold them in: its checkpoints and
     // volumes are then the same bytes.
-    sortSet(out, seq);
+    if (!positions) {
+      sortSet(out, seq);
+      continue;
+    }
+    std::vector<uint32_t> src(seq.size());
+    std::iota(src.begin(), src.end(), 0u);
+    std::stable_sort(src.begin(), src.end(),
+                     [&](uint32_t a, uint32_t b) { return seq[a] < seq[b]; });
+    std::vector<Vec3f> x(src.size());
+    std::vector<uint16_t> object(src.size());
+    for (size_t i = 0; i < src.size(); ++i) {
+      x[i] = out.x[src[i]];
+      object[i] = out.object[src[i]];
+    }
+    out.x = std::move(x);
+    out.object = std::move(object);
   }
   comm_seconds_ += MPI_Wtime() - t0;
 }

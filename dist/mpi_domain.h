@@ -47,8 +47,10 @@ class MpiDomain final : public DomainExchange, public ParticleShare {
   void followWork() { by_work_ = true; }
   // Every process's particles, set by set in the order one process holds
   // them in, on process 0 (`all` holds the sets' descriptions and no
-  // particles on the others), sent in chunks of 4 MiB.
-  void gather(const std::vector<ParticleSet>& sets, std::vector<ParticleSet>& all);
+  // particles on the others), sent in chunks of 4 MiB. With `positions`,
+  // only their positions and objects (what previews and surfaces use).
+  void gather(const std::vector<ParticleSet>& sets, std::vector<ParticleSet>& all,
+              bool positions = false);
   double sum(double value);
   // Per set, each particle's index in the whole world as gather() orders
   // it, so that each process can write its own particles into a file of

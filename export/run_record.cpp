@@ -40,7 +40,10 @@ void writeRunRecord(const std::string& path, const RunRecord& rec) {
                 {"bytes_sent", rec.mpi_bytes_sent},
                 {"particles_received", rec.mpi_received},
                 {"peak_rss_bytes", rec.mpi_peak_rss},
-                {"particles_at_start", rec.mpi_built}};
+                {"particles_at_start", rec.mpi_built},
+                {"written_by_every_process", rec.mpi_files_together},
+                {"gathered_for", rec.mpi_gathered_for},
+                {"gathered", rec.mpi_gathered}};
   j["quality"] = {{"preset", rec.quality.empty() ? nlohmann::ordered_json(nullptr)
                                                  : nlohmann::ordered_json(rec.quality)},
                   {"dx", rec.dx},

@@ -75,6 +75,10 @@ struct RunRecord {
   std::vector<uint64_t> mpi_bytes_sent, mpi_received;
   std::vector<uint64_t> mpi_peak_rss;  // per process (peak_rss_bytes is process 0's)
   std::vector<uint64_t> mpi_built;     // per process: particles it held when the split began
+  // The frame files every process writes its own particles into (or
+  // splats them for), and what process 0 gathers every particle for.
+  std::vector<std::string> mpi_files_together, mpi_gathered_for;
+  std::string mpi_gathered;  // of each particle: "nothing", "positions and objects", ...
 };
 
 void writeRunRecord(const std::string& path, const RunRecord& rec);
