@@ -269,6 +269,72 @@ TEST_F(Mpi, EachProcessBuildsOnlyItsShare) {
   expectShareOnly(again["mpi"], 1.0, "resumed");
 }
 
+// The frame's particle cache, volumes and checkpoint come from every
+// process at once: each writes its own particles into the PLY and the
+// checkpoint, and splats them for the volumes, so that process 0 holds no
+// other process's particles (previews, off here, gather positions). The
+// files are the bytes process 0 writes when it gathers everything (as on
+// machines that share no file system).
+TEST_F(Mpi, NoProcessGathersTheCacheWithoutPreviews) {
+  const fs::path dir = test::tempDir("write_together");
+  auto scene = [&](const char* name, std::array<double, 3> hi) {
+    json j = test::baseScene(name, {1.0, 1.0, 1.0}, 0.01);
+    j["frames"] = {{"count", 2}, {"fps", 2000}};
+    j["materials"] = {{"jelly", jellyMaterial()}};
+    j["objects"] = json::array({{{"name", "cube"},
+                                 {"kind", "mpm"},
+                                 {"material", "jelly"},
+                                 {"shape", test::box({0.25, 0.1, 0.25}, hi)}}});
+    j["output"] = {{"ply", true}, {"vdb", true}, {"png", false}};
+    return test::writeScene(dir, j, std::string(name) + ".json");
+  };
+  const std::string big = scene("together_big", {0.65, 0.35, 0.75});  // 400,000 particles
+  const std::string tiny = scene("together_tiny", {0.3, 0.15, 0.3});
+  const int n = 4;
+  const std::string launch = "TRIAD_MPI_GATHER_CHUNK=1048576 " + mpirun(n);
+  const std::string gathering = "TRIAD_MPI_SHARED_FILES=0 " + launch;
+  for (const auto& [out, prefix] : {std::pair{"tiny", launch},
+                                    {"big", launch},
+                                    {"tiny_gathered", gathering},
+                                    {"big_gathered", gathering}}) {
+    const test::CliResult r =
+        run(dir, std::string(out).find("big") == 0 ? big : tiny, dir / out, prefix);
+    ASSERT_EQ(r.status, 0) << out << ": " << r.err;
+  }
+  const json together = runJson(dir / "big")["mpi"],
+             gathered = runJson(dir / "big_gathered")["mpi"];
+  EXPECT_EQ(together["gathered"], "nothing");
+  EXPECT_EQ(together["written_by_every_process"],
+            json::array({"particles", "volumes", "checkpoints"}));
+  EXPECT_EQ(gathered["gathered"], "every attribute");
+  EXPECT_EQ(gathered["gathered_for"], json::array({"particles", "checkpoints"}));
+  // The same files either way.
+  for (int f = 0; f <= 2; ++f) {
+    EXPECT_TRUE(sameFile(framePly(dir / "big", f), framePly(dir / "big_gathered", f))) << f;
+    EXPECT_TRUE(sameFile(frameVdb(dir / "big", f), frameVdb(dir / "big_gathered", f))) << f;
+  }
+  for (const char* ckpt : {"state.0001.bin", "state.0002.bin"})
+    EXPECT_TRUE(
+        sameFile(dir / "big" / "checkpoints" / ckpt, dir / "big_gathered" / "checkpoints" / ckpt))
+        << ckpt;
+  // Process 0's peak above a particle-less run's, against the whole
+  // world's particle bytes: 0.66 when every process writes (process 1:
+  // 0.56; process 0 adds up the volumes' voxels), 3.07 when it gathers
+  // them.
+  const double whole_bytes = 400000.0 * 102.0;
+  auto over = [&](const char* out, const char* base, int p) {
+    return runJson(dir / out)["mpi"]["peak_rss_bytes"][size_t(p)].get<double>() -
+           runJson(dir / base)["mpi"]["peak_rss_bytes"][size_t(p)].get<double>();
+  };
+  std::printf(
+      "process 0 above its base: %.2f of the whole world's particle bytes writing "
+      "together, %.2f gathering; process 1: %.2f\n",
+      over("big", "tiny", 0) / whole_bytes, over("big_gathered", "tiny_gathered", 0) / whole_bytes,
+      over("big", "tiny", 1) / whole_bytes);
+  EXPECT_LT(over("big", "tiny", 0), 0.8 * whole_bytes);
+  EXPECT_GT(over("big_gathered", "tiny_gathered", 0), 1.0 * whole_bytes);
+}
+
 // For a fixed number of processes the bytes do not depend on the threads.
 TEST_F(Mpi, SameBytesForOneAndTwoThreadsPerProcess) {
   const fs::path dir = test::tempDir("threads");
