@@ -59,6 +59,22 @@ void FileChecksum::add(uint64_t offset, const void* data, size_t n) {
     ++word;
     power = mulMod(power, kRadix);
   }
+  // Whole words four at a time, on four chains of powers (r^4 apart), so
+  // that the multiplications do not wait on each other.
+  if (n >= 64) {
+    static const uint64_t r4 = powMod(kRadix, 4);
+    uint64_t pw[4] = {power, 0, 0, 0}, acc[4] = {sum, 0, 0, 0};
+    for (int k = 1; k < 4; ++k) pw[k] = mulMod(pw[k - 1], kRadix);
+    for (; n >= 32; n -= 32, p += 32)
+      for (int k = 0; k < 4; ++k) {
+        uint64_t w;
+        std::memcpy(&w, p + 8 * k, 8);
+        acc[k] = addMod(acc[k], mulMod(reduce(w), pw[k]));
+        pw[k] = mulMod(pw[k], r4);
+      }
+    sum = addMod(addMod(acc[0], acc[1]), addMod(acc[2], acc[3]));
+    power = pw[0];
+  }
   for (; n >= 8; n -= 8, p += 8) {
     uint64_t w;
     std::memcpy(&w, p, 8);

@@ -146,6 +146,8 @@ std::vector<VoxelSum> splatVolumeSums(const World& world, double h, const Volume
         w[d][1] = g - b;
         w[d][0] = 1.0 - w[d][1];
       }
+      double mv[3];
+      for (int d = 0; d < 3; ++d) mv[d] = m * double(set.v[i][d]) * scale.momentum;
       for (int c = 0; c < 8; ++c) {
         const int a = (c >> 2) & 1, b = (c >> 1) & 1, e = c & 1;
         const double wc = w[0][a] * w[1][b] * w[2][e];
@@ -157,10 +159,10 @@ std::vector<VoxelSum> splatVolumeSums(const World& world, double h, const Volume
           ia.setValue(ijk, k);
           sums.push_back({{ijk.x(), ijk.y(), ijk.z()}, 0, 0, {0, 0, 0}});
         }
+        // Rounded to the nearest unit (an instruction, not a libm call).
         VoxelSum& v = sums[size_t(k)];
-        v.m += std::llround(wc * m * scale.mass);
-        for (int d = 0; d < 3; ++d)
-          v.p[d] += std::llround(wc * m * double(set.v[i][d]) * scale.momentum);
+        v.m += int64_t(std::nearbyint(wc * m * scale.mass));
+        for (int d = 0; d < 3; ++d) v.p[d] += int64_t(std::nearbyint(wc * mv[d]));
       }
     }
   }
