@@ -84,14 +84,7 @@ std::shared_ptr<const World> RunSplit::gather(World& world, Gather what) {
   try {
     // The sets' descriptions without their particles.
     world.sets.clear();
-    for (const ParticleSet& s : share) {
-      ParticleSet e;
-      e.material = s.material;
-      e.model = s.model;
-      e.mass = s.mass;
-      e.volume = s.volume;
-      world.sets.push_back(std::move(e));
-    }
+    for (const ParticleSet& s : share) world.sets.push_back(s.withoutParticles());
     copy = std::make_shared<World>(world);
   } catch (...) {
     world.sets = std::move(share);

@@ -121,6 +121,24 @@ std::string sharedTemporary(MpiDomain& domain, bool root, const std::string& pat
   return path + ".tmp" + std::to_string(pid.at(0));
 }
 
+// Has every process write its part of the file `tmp` of `bytes` bytes
+// through write(file); if any fails, process 0 removes the file and every
+// process throws.
+template <typename Write>
+void writeTogether(const std::string& tmp, uint64_t bytes, bool root, Write&& write) {
+  try {
+    SharedFile file(tmp, bytes);
+    write(file);
+    file.close();
+  } catch (const std::exception&) {
+    if (root) {
+      std::error_code ignored;
+      fs::remove(tmp, ignored);
+    }
+    throw;
+  }
+}
+
 }  // namespace
 
 void RunSplit::checkSharedFolder(const std::string& out_dir) {
@@ -166,8 +184,7 @@ std::string RunSplit::writeCheckpointShared(const std::string& path, int frame,
   const uint64_t bytes = where.back();
   const std::string tmp = sharedTemporary(*domain_, root(), path);
   FileChecksum sum;
-  try {
-    SharedFile file(tmp, bytes);
+  writeTogether(tmp, bytes, root(), [&](SharedFile& file) {
     if (root())
       for (const CheckpointLayout::Piece& p : layout.pieces) {
         file.write(p.offset, p.bytes.data(), p.bytes.size());
@@ -200,14 +217,7 @@ std::string RunSplit::writeCheckpointShared(const std::string& path, int frame,
       const auto trailer = checkpointTrailer(whole, bytes - 16);
       file.write(bytes - 16, trailer.data(), trailer.size());
     }
-    file.close();
-  } catch (const std::exception& e) {
-    if (root()) {
-      std::error_code ignored;
-      fs::remove(tmp, ignored);
-    }
-    throw std::runtime_error(std::string(e.what()));
-  }
+  });
   return tmp;
 }
 
@@ -272,19 +282,11 @@ std::string RunSplit::writeParticlesShared(const std::string& path, const World&
   const std::string header = particlesPlyHeader(size_t(total), world.time);
   const uint64_t bytes = header.size() + total * sizeof(PlyParticle);
   const std::string tmp = sharedTemporary(*domain_, root(), path);
-  try {
-    SharedFile file(tmp, bytes);
+  writeTogether(tmp, bytes, root(), [&](SharedFile& file) {
     if (root()) file.write(0, header.data(), header.size());
     file.write(header.size() + before * sizeof(PlyParticle), run.data(),
                run.size() * sizeof(PlyParticle));
-    file.close();
-  } catch (const std::exception& e) {
-    if (root()) {
-      std::error_code ignored;
-      fs::remove(tmp, ignored);
-    }
-    throw std::runtime_error(std::string(e.what()));
-  }
+  });
   return tmp;
 }
 

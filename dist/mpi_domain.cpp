@@ -94,14 +94,7 @@ void fitCapacity(ParticleSet& set, size_t need, bool shrink = false) {
 // Empty copies of the sets' descriptions (material, masses), no particles.
 std::vector<ParticleSet> emptyLike(const std::vector<ParticleSet>& sets) {
   std::vector<ParticleSet> out;
-  for (const ParticleSet& s : sets) {
-    ParticleSet e;
-    e.material = s.material;
-    e.model = s.model;
-    e.mass = s.mass;
-    e.volume = s.volume;
-    out.push_back(std::move(e));
-  }
+  for (const ParticleSet& s : sets) out.push_back(s.withoutParticles());
   return out;
 }
 

@@ -146,6 +146,21 @@ json everyMaterial(int frames) {
   return j;
 }
 
+// A jelly cube from (0.25, 0.1, 0.25) to `hi` in a 1 m box at dx 0.01 (8
+// particles a cell), two frames of 0.5 ms: its scene file.
+std::string jellyCube(const fs::path& dir, const char* name, std::array<double, 3> hi,
+                      const json& output) {
+  json j = test::baseScene(name, {1.0, 1.0, 1.0}, 0.01);
+  j["frames"] = {{"count", 2}, {"fps", 2000}};
+  j["materials"] = {{"jelly", jellyMaterial()}};
+  j["objects"] = json::array({{{"name", "cube"},
+                               {"kind", "mpm"},
+                               {"material", "jelly"},
+                               {"shape", test::box({0.25, 0.1, 0.25}, hi)}}});
+  j["output"] = output;
+  return test::writeScene(dir, j, std::string(name) + ".json");
+}
+
 class Mpi : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -210,15 +225,7 @@ TEST_F(Mpi, TwoAndThreeProcessesAgreeWithOne) {
 TEST_F(Mpi, EachProcessBuildsOnlyItsShare) {
   const fs::path dir = test::tempDir("share");
   auto scene = [&](const char* name, std::array<double, 3> hi) {
-    json j = test::baseScene(name, {1.0, 1.0, 1.0}, 0.01);
-    j["frames"] = {{"count", 2}, {"fps", 2000}};
-    j["materials"] = {{"jelly", jellyMaterial()}};
-    j["objects"] = json::array({{{"name", "cube"},
-                                 {"kind", "mpm"},
-                                 {"material", "jelly"},
-                                 {"shape", test::box({0.25, 0.1, 0.25}, hi)}}});
-    j["output"] = {{"ply", false}, {"vdb", false}, {"png", false}};
-    return test::writeScene(dir, j, std::string(name) + ".json");
+    return jellyCube(dir, name, hi, {{"ply", false}, {"vdb", false}, {"png", false}});
   };
   // 400,000 particles of 102 bytes (39 MiB in all), and a scene of 1,000
   // for the memory every process has without particles.
@@ -278,15 +285,7 @@ TEST_F(Mpi, EachProcessBuildsOnlyItsShare) {
 TEST_F(Mpi, NoProcessGathersTheCacheWithoutPreviews) {
   const fs::path dir = test::tempDir("write_together");
   auto scene = [&](const char* name, std::array<double, 3> hi) {
-    json j = test::baseScene(name, {1.0, 1.0, 1.0}, 0.01);
-    j["frames"] = {{"count", 2}, {"fps", 2000}};
-    j["materials"] = {{"jelly", jellyMaterial()}};
-    j["objects"] = json::array({{{"name", "cube"},
-                                 {"kind", "mpm"},
-                                 {"material", "jelly"},
-                                 {"shape", test::box({0.25, 0.1, 0.25}, hi)}}});
-    j["output"] = {{"ply", true}, {"vdb", true}, {"png", false}};
-    return test::writeScene(dir, j, std::string(name) + ".json");
+    return jellyCube(dir, name, hi, {{"ply", true}, {"vdb", true}, {"png", false}});
   };
   const std::string big = scene("together_big", {0.65, 0.35, 0.75});  // 400,000 particles
   const std::string tiny = scene("together_tiny", {0.3, 0.15, 0.3});

@@ -121,6 +121,15 @@ void ParticleSet::removeFlagged(const std::vector<uint8_t>& gone) {
   compact(object, gone);
 }
 
+ParticleSet ParticleSet::withoutParticles() const {
+  ParticleSet e;
+  e.material = material;
+  e.model = model;
+  e.mass = mass;
+  e.volume = volume;
+  return e;
+}
+
 void ParticleSet::shrinkToFit() {
   x.shrink_to_fit();
   v.shrink_to_fit();

@@ -42,6 +42,8 @@ struct ParticleSet {
   // Removes the particles whose flag in `gone` is set; the others keep
   // their order.
   void removeFlagged(const std::vector<uint8_t>& gone);
+  // The set's description (material, model, mass, volume), no particles.
+  ParticleSet withoutParticles() const;
   // Gives back the attribute arrays' unused capacity.
   void shrinkToFit();
   // Bytes held by the attribute arrays (capacity, not size).
