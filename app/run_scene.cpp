@@ -373,41 +373,13 @@ int runScene(const RunOptions& options_in) {
     rec.frames_written = frame + 1;
     record(sim, false, "");
   };
-  // What process 0 needs every particle for: the outputs that sample or
-  // draw them all at once (the particle cache and the checkpoint too where
-  // the processes cannot write one file together). The volumes' density
-  // and velocity are splatted by each process and added up.
+  // Split over processes: which files every process writes its particles
+  // into, and what process 0 gathers of every particle for the rest.
   const bool shared_files = split.active() && split.sharedFiles();
   const bool shared_volumes = split.active() && scene.output.vdb;
+  const RunSplit::Gather gather = split.planOutput(scene.output, rec);
   const double vdb_voxel =
       scene.output.vdb_voxel_size > 0 ? scene.output.vdb_voxel_size : scene.domain.dx;
-  // Previews and surfaces read positions alone; the VTK files, and a
-  // particle cache or checkpoint process 0 writes alone, every attribute.
-  const bool whole =
-      scene.output.vtk || (!shared_files && (scene.output.ply || scene.output.checkpoints));
-  const bool positions = scene.output.png || scene.output.surface_mesh ||
-                         (scene.output.vdb && scene.output.vdb_surface);
-  const RunSplit::Gather gather = whole       ? RunSplit::Gather::Whole
-                                  : positions ? RunSplit::Gather::Positions
-                                              : RunSplit::Gather::None;
-  if (split.active()) {
-    const OutputDesc& o = scene.output;
-    for (const auto& [on, together, name] : {std::tuple{o.ply, shared_files, "particles"},
-                                             {o.vdb, true, "volumes"},
-                                             {o.checkpoints, shared_files, "checkpoints"}})
-      if (on && together) rec.mpi_files_together.push_back(name);
-    // What process 0 gathers every particle for, and how much of each.
-    for (const auto& [on, name] : {std::pair{o.png, "previews"},
-                                   {o.surface_mesh, "surfaces"},
-                                   {o.vdb && o.vdb_surface, "volumes' surface"},
-                                   {o.vtk, "vtk"},
-                                   {o.ply && !shared_files, "particles"},
-                                   {o.checkpoints && !shared_files, "checkpoints"}})
-      if (on) rec.mpi_gathered_for.push_back(name);
-    rec.mpi_gathered = gather == RunSplit::Gather::Whole       ? "every attribute"
-                       : gather == RunSplit::Gather::Positions ? "positions and objects"
-                                                               : "nothing";
-  }
   auto writeFrame = [&](int frame) {
     const double t0 = omp_get_wtime();
     SimState sim = simState();

@@ -15,6 +15,7 @@ struct SceneDesc;
 class ParticleShare;
 class Solver;
 struct RunRecord;
+struct OutputDesc;
 struct SolverState;
 struct StepRecord;
 struct VoxelSum;
@@ -55,6 +56,12 @@ class RunSplit {
     Positions,  // positions and objects (previews, surfaces)
     Whole       // every attribute
   };
+  // What process 0 gathers of every particle for the frames' files that
+  // `output` asks for: previews and surfaces read positions alone; VTK
+  // files, and a particle cache or checkpoint that process 0 writes alone
+  // (sharedFiles() false), every attribute. The volumes' density and
+  // velocity each process splats itself. Says so in `rec`'s mpi fields.
+  Gather planOutput(const OutputDesc& output, RunRecord& rec) const;
   // The world with every process's particles, on process 0 (null on the
   // others). The world's own particles are set aside while it is copied,
   // not copied.
