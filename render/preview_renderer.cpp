@@ -179,9 +179,6 @@ out vec4 frag;
 void main() { frag = vec4(mix(bottom, top, clamp(t, 0.0, 1.0)), 1.0); }
 )";
 
-// Particles drawn per call (see render()).
-constexpr size_t kParticlesPerDraw = size_t(1) << 16;
-
 std::string litFragment(const char* body) { return std::string("#version 330 core\n") + kShadeGlsl + body; }
 
 double niceStep(double x) {
@@ -388,27 +385,16 @@ struct PreviewRenderer::Impl {
       glBindBuffer(GL_ARRAY_BUFFER, particle_vbo);
       glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(particles.count * 3 * sizeof(float)), particles.xyz,
                    GL_STREAM_DRAW);
+      glEnableVertexAttribArray(0);
+      glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 0, nullptr);
+      glVertexAttribDivisor(0, 1);
       glBindBuffer(GL_ARRAY_BUFFER, object_vbo);
       glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(particles.count * sizeof(uint16_t)), particles.object,
                    GL_STREAM_DRAW);
-      glEnableVertexAttribArray(0);
       glEnableVertexAttribArray(1);
-      glVertexAttribDivisor(0, 1);
+      glVertexAttribIPointer(1, 1, GL_UNSIGNED_SHORT, 0, nullptr);
       glVertexAttribDivisor(1, 1);
-      // In batches, in order: a software rasteriser (llvmpipe) keeps every
-      // vertex of a draw call it shades, about 200 bytes a particle in one
-      // call. The fragments, and so the image, are the same.
-      const size_t batch = kParticlesPerDraw;
-      for (size_t first = 0; first < particles.count; first += batch) {
-        const size_t n = std::min(batch, particles.count - first);
-        glBindBuffer(GL_ARRAY_BUFFER, particle_vbo);
-        glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 0,
-                              reinterpret_cast<const void*>(first * 3 * sizeof(float)));
-        glBindBuffer(GL_ARRAY_BUFFER, object_vbo);
-        glVertexAttribIPointer(1, 1, GL_UNSIGNED_SHORT, 0,
-                               reinterpret_cast<const void*>(first * sizeof(uint16_t)));
-        glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, GLsizei(n));
-      }
+      glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, GLsizei(particles.count));
       glVertexAttribDivisor(0, 0);
       glVertexAttribDivisor(1, 0);
       glDisableVertexAttribArray(1);
