@@ -497,10 +497,17 @@ int runScene(const RunOptions& options_in) {
     drainOutput();
     progress.finish();
     const bool sim = dynamic_cast<const SimulationError*>(&e) != nullptr;
+    // A failure every process met together process 0 alone reports; the
+    // others end quietly (none waits in an exchange). Any other failure
+    // of a process ends every process at once.
+    const bool together = dynamic_cast<const SplitFailure*>(&e) != nullptr;
+    if (split.active() && !split.root() && together) return kExitRunFailed;
     const std::string msg = std::string(sim ? "simulation failed in frame " : "failed in frame ") +
                             std::to_string(frame) + ": " + e.what();
     std::fprintf(stderr, "triad: error: %s%s\n",
-                 split.active() ? ("process " + std::to_string(split.rank()) + ": ").c_str() : "",
+                 split.active() && !together
+                     ? ("process " + std::to_string(split.rank()) + ": ").c_str()
+                     : "",
                  msg.c_str());
     if (split.active() && !split.root()) split.abort(kExitRunFailed);
     std::fprintf(stderr, "triad: frames 0..%d are complete in %s\n", rec.frames_written - 1,
@@ -525,7 +532,9 @@ int runScene(const RunOptions& options_in) {
     } catch (const std::exception& e2) {
       std::fprintf(stderr, "triad: error: %s\n", e2.what());
     }
-    if (split.active()) split.abort(kExitRunFailed);
+    // Others may wait in an exchange: end them, unless every process met
+    // the failure and ends on its own.
+    if (split.active() && !together) split.abort(kExitRunFailed);
     return kExitRunFailed;
   }
   progress.finish();

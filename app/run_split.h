@@ -5,6 +5,7 @@
 // others simulate their share and send their particles to it each frame.
 #include <cstdint>
 #include <memory>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -21,6 +22,14 @@ struct StepRecord;
 struct VoxelSum;
 struct VolumeScale;
 class MpiDomain;
+
+// A failure that every process of a split run meets together (they agreed
+// on it in an exchange): each process can end on its own, none waits in an
+// exchange for the others.
+class SplitFailure : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
 
 class RunSplit {
  public:

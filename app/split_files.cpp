@@ -40,18 +40,29 @@ constexpr size_t kChunkBytes = size_t(1) << 20;  // what each process packs befo
 // One file that every process writes into at once, each its own bytes.
 class SharedFile {
  public:
-  SharedFile(const std::string& path, uint64_t bytes) : path_(path) {
-    open_ = MPI_File_open(MPI_COMM_WORLD, path.c_str(), MPI_MODE_CREATE | MPI_MODE_WRONLY,
+  // `path`: the file the temporary `tmp` becomes, for messages.
+  SharedFile(const std::string& tmp, const std::string& path, uint64_t bytes) : path_(path) {
+    open_ = MPI_File_open(MPI_COMM_WORLD, tmp.c_str(), MPI_MODE_CREATE | MPI_MODE_WRONLY,
                           MPI_INFO_NULL, &file_) == MPI_SUCCESS;
     int all = open_;
     MPI_Allreduce(MPI_IN_PLACE, &all, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
     if (!all) {
       if (open_) MPI_File_close(&file_);
       open_ = false;
-      throw std::runtime_error(path + ": cannot open for writing by every process");
+      throw SplitFailure(path + ": a process cannot open its temporary " + tmp + " for writing");
     }
     // Exactly this long, whatever a file of the name held before.
     ok_ = MPI_File_set_size(file_, MPI_Offset(bytes)) == MPI_SUCCESS;
+    // Tests make one process fail its writes, as a full disk would:
+    // TRIAD_FAULT_SHARED_WRITE=R:K fails process R's K-th file (from 0).
+    static int files = 0;
+    int rank = 0;
+    MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+    if (const char* f = std::getenv("TRIAD_FAULT_SHARED_WRITE")) {
+      const char* colon = std::strchr(f, ':');
+      if (colon && std::atoi(f) == rank && std::atoi(colon + 1) == files) ok_ = false;
+    }
+    ++files;
   }
   ~SharedFile() {
     if (open_) MPI_File_close(&file_);
@@ -76,7 +87,8 @@ class SharedFile {
     open_ = false;
     int all = ok_;
     MPI_Allreduce(MPI_IN_PLACE, &all, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
-    if (!all) throw std::runtime_error(path_ + ": write failed on a process (disk full?)");
+    if (!all)
+      throw SplitFailure(path_ + ": a process could not write its part of the file (disk full?)");
   }
 
  private:
@@ -125,9 +137,10 @@ std::string sharedTemporary(MpiDomain& domain, bool root, const std::string& pat
 // through write(file); if any fails, process 0 removes the file and every
 // process throws.
 template <typename Write>
-void writeTogether(const std::string& tmp, uint64_t bytes, bool root, Write&& write) {
+void writeTogether(const std::string& tmp, const std::string& path, uint64_t bytes, bool root,
+                   Write&& write) {
   try {
-    SharedFile file(tmp, bytes);
+    SharedFile file(tmp, path, bytes);
     write(file);
     file.close();
   } catch (const std::exception&) {
@@ -184,7 +197,7 @@ std::string RunSplit::writeCheckpointShared(const std::string& path, int frame,
   const uint64_t bytes = where.back();
   const std::string tmp = sharedTemporary(*domain_, root(), path);
   FileChecksum sum;
-  writeTogether(tmp, bytes, root(), [&](SharedFile& file) {
+  writeTogether(tmp, path, bytes, root(), [&](SharedFile& file) {
     if (root())
       for (const CheckpointLayout::Piece& p : layout.pieces) {
         file.write(p.offset, p.bytes.data(), p.bytes.size());
@@ -282,7 +295,7 @@ std::string RunSplit::writeParticlesShared(const std::string& path, const World&
   const std::string header = particlesPlyHeader(size_t(total), world.time);
   const uint64_t bytes = header.size() + total * sizeof(PlyParticle);
   const std::string tmp = sharedTemporary(*domain_, root(), path);
-  writeTogether(tmp, bytes, root(), [&](SharedFile& file) {
+  writeTogether(tmp, path, bytes, root(), [&](SharedFile& file) {
     if (root()) file.write(0, header.data(), header.size());
     file.write(header.size() + before * sizeof(PlyParticle), run.data(),
                run.size() * sizeof(PlyParticle));

@@ -334,6 +334,37 @@ TEST_F(Mpi, NoProcessGathersTheCacheWithoutPreviews) {
   EXPECT_GT(over("big_gathered", "tiny_gathered", 0), 1.0 * whole_bytes);
 }
 
+// A process that cannot write its part of a frame's file (a full disk)
+// ends the run on every process: process 0 names the file and records the
+// failure, the frames before stay complete with their checkpoints, no
+// temporary is left, and the run resumes to the bytes of one that never
+// failed.
+TEST_F(Mpi, AFailedSharedWriteEndsTheRunAndItResumes) {
+  const fs::path dir = test::tempDir("shared_write_fails");
+  const std::string scene = test::writeScene(dir, everyMaterial(3));
+  const test::CliResult one = run(dir, scene, dir / "one", "OMP_NUM_THREADS=1");
+  ASSERT_EQ(one.status, 0) << one.err;
+  // Frames 0 and 1 write a PLY and a checkpoint each; process 1 fails the
+  // fifth file, frame 2's particles.
+  const fs::path out = dir / "np3";
+  const test::CliResult r = run(dir, scene, out, "TRIAD_FAULT_SHARED_WRITE=1:4 " + mpirun(3));
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.err.find("particles.0002.ply: a process could not write its part"), std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find("frames 0..1 are complete"), std::string::npos) << r.err;
+  EXPECT_NE(runJson(out)["error"].get<std::string>().find("particles.0002.ply"), std::string::npos);
+  for (const char* sub : {"particles", "checkpoints", "volumes"})
+    for (const auto& e : fs::directory_iterator(out / sub))
+      EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << e.path();
+  EXPECT_FALSE(fs::exists(framePly(out, 2)));
+  EXPECT_TRUE(fs::exists(out / "checkpoints" / "state.0001.bin"));
+  const test::CliResult resumed = run(dir, scene, out, mpirun(3), "--resume");
+  ASSERT_EQ(resumed.status, 0) << resumed.err;
+  EXPECT_NE(resumed.err.find("resuming after frame 1"), std::string::npos) << resumed.err;
+  for (int f = 0; f <= 3; ++f)
+    EXPECT_TRUE(sameFile(framePly(out, f), framePly(dir / "one", f))) << f;
+}
+
 // For a fixed number of processes the bytes do not depend on the threads.
 TEST_F(Mpi, SameBytesForOneAndTwoThreadsPerProcess) {
   const fs::path dir = test::tempDir("threads");
