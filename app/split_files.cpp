@@ -47,7 +47,8 @@ class SharedFile {
     int all = open_;
     MPI_Allreduce(MPI_IN_PLACE, &all, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
     if (!all) {
-      if (open_) MPI_File_close(&file_);
+      // Not closed where it opened: closing is collective, and the
+      // processes where it failed hold no handle to close.
       open_ = false;
       throw SplitFailure(path + ": a process cannot open its temporary " + tmp + " for writing");
     }
