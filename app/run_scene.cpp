@@ -257,7 +257,11 @@ int runScene(const RunOptions& options_in) {
   split.barrier();
   split.attach(world, solver, options.balance == "work");
   split.checkSharedFolder(out_dir);
-  if (!split.root()) before = StepRecord{};
+  if (!split.root()) {
+    before = StepRecord{};
+    // A checkpoint holds the sinks' whole counts, which process 0 keeps.
+    for (Sink& sink : world.sinks) sink.removed = 0;
+  }
   rec.frames_written = resumed_from + 1;  // frames 0..resumed_from are on disk
   rec.resume = options.resume;
   rec.resumed_from_frame = resumed_from;
@@ -302,6 +306,11 @@ int runScene(const RunOptions& options_in) {
       // Each process's sinks remove its own particles; sources make the
       // same count on every process.
       for (auto& [name, n] : s.removed) n = uint64_t(split.sum(double(n)));
+      // From here process 0 holds the whole count and the others start
+      // again from none: the sum stays the run's, and process 0's world
+      // (which the checkpoint takes) holds all of it.
+      for (size_t k = 0; k < world.sinks.size(); ++k)
+        world.sinks[k].removed = split.root() ? s.removed[k].second : 0;
     }
     s.time = world.time;
     s.steps_while_writing = steps_while_writing;

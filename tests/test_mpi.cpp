@@ -216,6 +216,10 @@ TEST_F(Mpi, TwoAndThreeProcessesAgreeWithOne) {
       EXPECT_TRUE(sameFile(framePly(out, f), framePly(dir / "one", f))) << n << " frame " << f;
       EXPECT_TRUE(sameFile(frameVdb(out, f), frameVdb(dir / "one", f))) << n << " frame " << f;
     }
+    // And so are the checkpoints the processes wrote together.
+    for (const char* ckpt : {"state.0005.bin", "state.0006.bin"})
+      EXPECT_TRUE(sameFile(out / "checkpoints" / ckpt, dir / "one" / "checkpoints" / ckpt))
+          << n << " " << ckpt;
   }
 }
 
@@ -707,7 +711,21 @@ TEST_F(Mpi, SourcesAndSinksMakeAndRemoveWhatOneProcessDoes) {
     EXPECT_EQ(rj["particles"]["total"], ref["particles"]["total"]) << n;
     for (int f = 1; f <= 10; ++f)
       EXPECT_TRUE(sameFile(framePly(out, f), framePly(dir / "one", f))) << n << " frame " << f;
+    // The checkpoints too: they count what every process's sinks removed
+    // (they held process 0's count alone).
+    EXPECT_TRUE(sameFile(out / "checkpoints" / "state.0010.bin",
+                         dir / "one" / "checkpoints" / "state.0010.bin"))
+        << n;
   }
+  // Resumed under 2 processes from frame 9 of the 3-process run: the
+  // removed count goes on from the whole run's, counted once.
+  const fs::path out = dir / "np3";
+  fs::remove(out / "checkpoints" / "state.0010.bin");
+  const test::CliResult resumed = run(dir, scene, out, mpirun(2), "--resume");
+  ASSERT_EQ(resumed.status, 0) << resumed.err;
+  EXPECT_EQ(runJson(out)["particles"]["removed"], ref["particles"]["removed"]);
+  EXPECT_TRUE(sameFile(out / "checkpoints" / "state.0010.bin",
+                       dir / "one" / "checkpoints" / "state.0010.bin"));
 }
 
 // FLIP's velocity changes are summed and sent back as the velocities are.
