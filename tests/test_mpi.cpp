@@ -76,6 +76,16 @@ bool sameFile(const fs::path& a, const fs::path& b) {
   return fs::exists(a) && fs::exists(b) && test::slurp(a) == test::slurp(b);
 }
 
+// Whether `out` holds every checkpoint of `ref`, byte for byte.
+bool sameCheckpoints(const fs::path& out, const fs::path& ref) {
+  bool any = false;
+  for (const auto& e : fs::directory_iterator(ref / "checkpoints")) {
+    any = true;
+    if (!sameFile(out / "checkpoints" / e.path().filename(), e.path())) return false;
+  }
+  return any;
+}
+
 // Largest distance between the same particle (by id) in two frames.
 double largestDifference(const std::vector<Particle>& a, const std::vector<Particle>& b) {
   EXPECT_EQ(a.size(), b.size());
@@ -446,6 +456,7 @@ TEST_F(Mpi, MomentumCrossesTheCutAndParticlesMigrate) {
   EXPECT_GT(resting_vx / double(resting), 0.1);
   for (int f = 0; f <= 6; ++f)
     EXPECT_TRUE(sameFile(framePly(dir / "np2", f), framePly(dir / "one", f))) << "frame " << f;
+  EXPECT_TRUE(sameCheckpoints(dir / "np2", dir / "one"));
   // The material moved right and particles changed process: more than the
   // block's leading layer of cells arrived on the second.
   const json rj = runJson(dir / "np2");
@@ -587,6 +598,7 @@ TEST_F(Mpi, RigidBodiesAndCollidersAgreeWithOneProcess) {
       EXPECT_TRUE(sameFile(out / f, dir / "one" / f)) << n << " " << f;
     for (int f = 1; f <= 8; ++f)
       EXPECT_TRUE(sameFile(framePly(out, f), framePly(dir / "one", f))) << n << " frame " << f;
+    EXPECT_TRUE(sameCheckpoints(out, dir / "one")) << n;
   }
 }
 
@@ -629,6 +641,7 @@ TEST_F(Mpi, ElasticSolidAgreesWithOneProcess) {
       EXPECT_TRUE(sameFile(out / mesh, dir / "one" / mesh)) << n << " " << mesh;
       EXPECT_TRUE(sameFile(framePly(out, f), framePly(dir / "one", f))) << n << " frame " << f;
     }
+    EXPECT_TRUE(sameCheckpoints(out, dir / "one")) << n;
   }
 }
 
@@ -740,6 +753,7 @@ TEST_F(Mpi, FlipAgreesWithOneProcess) {
   ASSERT_EQ(two.status, 0) << two.err;
   for (int f = 1; f <= 4; ++f)
     EXPECT_TRUE(sameFile(framePly(dir / "np2", f), framePly(dir / "one", f))) << "frame " << f;
+  EXPECT_TRUE(sameCheckpoints(dir / "np2", dir / "one"));
 }
 
 // SIGTERM to every process (as a batch system sends it) stops them all at
