@@ -77,7 +77,8 @@ size_t arrayBytes(const std::vector<T>& a) {
   return a.size() * sizeof(T);
 }
 
-// Bytes of set k's particle arrays in a file of `n` of its particles.
+// Bytes of each of a set's particle arrays in a file that holds `n` of its
+// particles (x v C F J id object).
 std::array<uint64_t, 7> arraySizes(const ParticleSet& s, uint64_t n) {
   // F and J only where the set has them; none at all for an empty set (as
   // a single process writes one).
