@@ -67,12 +67,18 @@ void unpackParticle(ParticleSet& set, std::vector<uint64_t>& seq, const unsigned
   seq.push_back(take<uint64_t>(in));
 }
 
+// The indices of `seq` in ascending order of its values, stably.
+std::vector<uint32_t> ascending(const std::vector<uint64_t>& seq) {
+  std::vector<uint32_t> src(seq.size());
+  std::iota(src.begin(), src.end(), 0u);
+  std::stable_sort(src.begin(), src.end(), [&](uint32_t a, uint32_t b) { return seq[a] < seq[b]; });
+  return src;
+}
+
 // Reorders `set` (and `seq` with it) by ascending sequence number, stably.
 void sortSet(ParticleSet& set, std::vector<uint64_t>& seq) {
   if (std::is_sorted(seq.begin(), seq.end())) return;
-  std::vector<uint32_t> src(seq.size());
-  for (size_t i = 0; i < src.size(); ++i) src[i] = uint32_t(i);
-  std::stable_sort(src.begin(), src.end(), [&](uint32_t a, uint32_t b) { return seq[a] < seq[b]; });
+  const std::vector<uint32_t> src = ascending(seq);
   std::vector<unsigned char> scratch(set.size() * ParticleSet::kPermuteScratch);
   set.permute(src, scratch.data());
   std::vector<uint64_t> sorted(seq.size());
@@ -622,9 +628,12 @@ bool MpiDomain::wholeIndex(const std::vector<ParticleSet>& sets,
   const size_t groups = size_t(size_), n = sets.size();
   // (And one more entry in each: whether any number lay outside the groups.)
   std::vector<uint64_t> count(n * groups + 1, 0), top(n * groups + 1, 0);
+  // Whether set s's particles carry sequence numbers (else their place here).
+  std::vector<uint8_t> numbered(n);
+  for (size_t s = 0; s < n; ++s)
+    numbered[s] = !seq_fresh_ && s < seq_.size() && seq_[s].size() == sets[s].size();
   auto seqOf = [&](size_t s, size_t i) {
-    const bool numbered = !seq_fresh_ && s < seq_.size() && seq_[s].size() == sets[s].size();
-    return numbered ? seq_[s][i] : uint64_t(rank_) << kShift | i;
+    return numbered[s] ? seq_[s][i] : uint64_t(rank_) << kShift | i;
   };
   for (size_t s = 0; s < n; ++s)
     for (size_t i = 0; i < sets[s].size(); ++i) {
@@ -744,10 +753,7 @@ void MpiDomain::gather(const std::vector<ParticleSet>& sets, std::vector<Particl
       sortSet(out, seq);
       continue;
     }
-    std::vector<uint32_t> src(seq.size());
-    std::iota(src.begin(), src.end(), 0u);
-    std::stable_sort(src.begin(), src.end(),
-                     [&](uint32_t a, uint32_t b) { return seq[a] < seq[b]; });
+    const std::vector<uint32_t> src = ascending(seq);
     std::vector<Vec3f> x(src.size());
     std::vector<uint16_t> object(src.size());
     for (size_t i = 0; i < src.size(); ++i) {

@@ -46,6 +46,15 @@ World movingWorld(const fs::path& dir) {
   return w;
 }
 
+// The frame description the tests write movingWorld with.
+VdbFrameInfo vdbInfo(double voxel_size, bool surface = false) {
+  VdbFrameInfo info;
+  info.scene_name = "vdb_scene";
+  info.voxel_size = voxel_size;
+  info.surface = surface;
+  return info;
+}
+
 struct ParticleBounds {
   Vec3d lo = Vec3d::Constant(1e30), hi = Vec3d::Constant(-1e30);
 };
@@ -213,10 +222,7 @@ TEST_F(VdbExport, GridsMetadataMassAndVelocityReadBack) {
 TEST_F(VdbExport, SurfaceIsANarrowBandOfDistance) {
   const fs::path dir = test::tempDir("vdb_band");
   const World w = movingWorld(dir);
-  VdbFrameInfo info;
-  info.scene_name = "vdb_scene";
-  info.voxel_size = 0.02;
-  info.surface = true;
+  const VdbFrameInfo info = vdbInfo(0.02, true);
   writeVolumesVdb((dir / "s.vdb").string(), w, info);
   openvdb::io::File file((dir / "s.vdb").string());
   file.open();
@@ -251,9 +257,7 @@ TEST_F(VdbExport, SurfaceIsANarrowBandOfDistance) {
 TEST_F(VdbExport, VolumesDoNotDependOnTheParticlesOrderOrSplit) {
   const fs::path dir = test::tempDir("vdb_order");
   const World w = movingWorld(dir);
-  VdbFrameInfo info;
-  info.scene_name = "vdb_scene";
-  info.voxel_size = 0.02;
+  const VdbFrameInfo info = vdbInfo(0.02);
   writeVolumesVdb((dir / "in_order.vdb").string(), w, info);
   // Reversed, set by set.
   World reversed = w;
@@ -292,10 +296,7 @@ TEST_F(VdbExport, VolumesDoNotDependOnTheParticlesOrderOrSplit) {
 TEST_F(VdbExport, SameParticlesSameBytesAndConfigurableVoxelSize) {
   const fs::path dir = test::tempDir("vdb_bytes");
   const World w = movingWorld(dir);
-  VdbFrameInfo info;
-  info.scene_name = "vdb_scene";
-  info.voxel_size = 0.013;
-  info.surface = true;
+  const VdbFrameInfo info = vdbInfo(0.013, true);
   writeVolumesVdb((dir / "a.vdb").string(), w, info);
   writeVolumesVdb((dir / "b.vdb").string(), w, info);
   const std::string a = slurp(dir / "a.vdb"), b = slurp(dir / "b.vdb");
@@ -318,9 +319,7 @@ TEST_F(VdbExport, SameParticlesSameBytesAndConfigurableVoxelSize) {
 TEST_F(VdbExport, VdbPrintReadsTheFile) {
   const fs::path dir = test::tempDir("vdb_print");
   const World w = movingWorld(dir);
-  VdbFrameInfo info;
-  info.scene_name = "vdb_scene";
-  info.voxel_size = 0.02;
+  const VdbFrameInfo info = vdbInfo(0.02);
   writeVolumesVdb((dir / "d.vdb").string(), w, info);
   const std::string cmd = "vdb_print -l " + (dir / "d.vdb").string() + " >" +
                           (dir / "out.txt").string() + " 2>&1";
