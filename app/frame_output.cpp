@@ -167,6 +167,9 @@ std::string bodyForcesPath(const std::string& out_dir) {
 std::string surfacesDir(const std::string& out_dir) { return out_dir + "/surfaces"; }
 
 std::string vtkDir(const std::string& out_dir) { return out_dir + "/vtk"; }
+std::string vtkParticlesPath(const std::string& out_dir, int frame) {
+  return frameName(vtkDir(out_dir), "particles", frame, "vtp");
+}
 
 std::string surfaceMeshPath(const std::string& out_dir, const std::string& material, int frame) {
   return frameName(surfacesDir(out_dir), material.c_str(), frame, "ply");
@@ -247,7 +250,10 @@ std::vector<std::pair<int, TriSurface>> writeFrameCaches(const SceneDesc& scene,
     moveIntoPlace(shared.particles, particlesPath(out_dir, frame));
   else if (scene.output.ply)
     writeParticlesPly(particlesPath(out_dir, frame), world);
-  if (vtk) writeParticlesVtp(frameName(vtkDir(out_dir), "particles", frame, "vtp"), world);
+  if (!shared.vtk_particles.empty())
+    moveIntoPlace(shared.vtk_particles, vtkParticlesPath(out_dir, frame));
+  else if (vtk)
+    writeParticlesVtp(vtkParticlesPath(out_dir, frame), world);
   if (scene.output.vdb) {
     VdbFrameInfo info;
     info.frame = frame;

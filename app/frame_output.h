@@ -26,6 +26,7 @@ std::string rigidStatesPath(const std::string& out_dir);
 std::string bodyForcesPath(const std::string& out_dir);
 std::string surfacesDir(const std::string& out_dir);
 std::string vtkDir(const std::string& out_dir);
+std::string vtkParticlesPath(const std::string& out_dir, int frame);
 std::string surfaceMeshPath(const std::string& out_dir, const std::string& material, int frame);
 
 // The materials whose surfaces output.surface_mesh writes: those of the
@@ -46,7 +47,7 @@ void makeOutputDirectories(const SceneDesc& scene, const std::string& out_dir);
 // temporaries to rename into place (empty: not written that way), and the
 // volumes' sums they splatted (null: splat the world's particles).
 struct SharedWrites {
-  std::string particles, checkpoint;
+  std::string particles, vtk_particles, checkpoint;
   struct Volumes {
     std::vector<VoxelSum> sums;
     VolumeScale scale;

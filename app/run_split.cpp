@@ -208,17 +208,18 @@ void RunSplit::abort(int code) {
 RunSplit::Gather RunSplit::planOutput(const OutputDesc& o, RunRecord& rec) const {
   if (!active()) return Gather::None;
   const bool together = shared_files_;
-  const bool whole = o.vtk || (!together && (o.ply || o.checkpoints));
+  const bool whole = !together && (o.ply || o.vtk || o.checkpoints);
   const bool positions = o.png || o.surface_mesh || (o.vdb && o.vdb_surface);
   const Gather gather = whole ? Gather::Whole : positions ? Gather::Positions : Gather::None;
   for (const auto& [on, each, name] : {std::tuple{o.ply, together, "particles"},
                                        {o.vdb, true, "volumes"},
+                                       {o.vtk, together, "vtk particles"},
                                        {o.checkpoints, together, "checkpoints"}})
     if (on && each) rec.mpi_files_together.push_back(name);
   for (const auto& [on, name] : {std::pair{o.png, "previews"},
                                  {o.surface_mesh, "surfaces"},
                                  {o.vdb && o.vdb_surface, "volumes' surface"},
-                                 {o.vtk, "vtk"},
+                                 {o.vtk && !together, "vtk particles"},
                                  {o.ply && !together, "particles"},
                                  {o.checkpoints && !together, "checkpoints"}})
     if (on) rec.mpi_gathered_for.push_back(name);

@@ -89,7 +89,14 @@ class RunSplit {
   std::string writeCheckpointShared(const std::string& path, int frame,
                                     const std::string& scene_hash, const World& world,
                                     const SolverState& state, const StepRecord& record);
-  std::string writeParticlesShared(const std::string& path, const World& world);
+  // Collective, the same for the particles' PLY (at `ply`) and their VTK
+  // file (at `vtp`), each left out where its path is empty; the
+  // temporaries' names, empty for a file not written.
+  struct SharedParticles {
+    std::string ply, vtp;
+  };
+  SharedParticles writeParticlesShared(const std::string& ply, const std::string& vtp,
+                                       const World& world);
   // Collective: the volumes' sums (export/vdb_writer.h) of every process's
   // particles on voxels of size h, added up on process 0 (empty on the
   // others), and the scale they share.

@@ -16,9 +16,11 @@
 #include <stdexcept>
 
 #include "app/run_split.h"
+#include "export/atomic_file.h"
 #include "export/checkpoint.h"
 #include "export/ply_writer.h"
 #include "export/vdb_writer.h"
+#include "export/vtk_writer.h"
 #include "sim/world.h"
 
 #ifdef TRIAD_HAVE_MPI
@@ -153,6 +155,73 @@ void writeTogether(const std::string& tmp, const std::string& path, uint64_t byt
   }
 }
 
+// Collective: the whole world's particles as PLY records, their ids cut
+// into runs of about equal count, one per process in order; this
+// process's run, sorted by id, the whole count and how many come before it.
+struct IdRun {
+  std::vector<PlyParticle> run;
+  uint64_t total = 0, before = 0;
+};
+IdRun particlesByIdRun(const World& world, size_t procs, bool root) {
+  // Each process sorts the particles it is sent; the runs lie in the files
+  // in process order, so that the files list every particle by id.
+  const size_t buckets = 256 * procs;
+  uint64_t top = 0, mine = 0;
+  for (const ParticleSet& s : world.sets)
+    for (const uint32_t id : s.id) top = std::max<uint64_t>(top, id + 1);
+  std::vector<uint64_t> limit{top};
+  MPI_Allreduce(MPI_IN_PLACE, limit.data(), 1, MPI_UINT64_T, MPI_MAX, MPI_COMM_WORLD);
+  const uint64_t span = std::max<uint64_t>(1, limit[0]);
+  auto bucketOf = [&](uint32_t id) { return size_t(Wide(id) * buckets / span); };
+  std::vector<uint64_t> per_bucket(buckets, 0);
+  for (const ParticleSet& s : world.sets)
+    for (const uint32_t id : s.id) ++per_bucket[bucketOf(id)];
+  MPI_Allreduce(MPI_IN_PLACE, per_bucket.data(), int(buckets), MPI_UINT64_T, MPI_SUM,
+                MPI_COMM_WORLD);
+  const uint64_t total = std::accumulate(per_bucket.begin(), per_bucket.end(), uint64_t(0));
+  std::vector<int> owner(buckets);
+  for (size_t b = 0, before = 0; b < buckets; before += per_bucket[b], ++b)
+    owner[b] = int(std::min<uint64_t>(procs - 1, total ? before * procs / total : 0));
+  // Each particle's record to the process of its id's run, packed by
+  // destination in one array.
+  std::vector<int> send(procs, 0), recv(procs), sdisp(procs), rdisp(procs);
+  std::vector<size_t> fill(procs, 0);
+  for (const ParticleSet& s : world.sets)
+    for (const uint32_t id : s.id) ++fill[size_t(owner[bucketOf(id)])];
+  for (size_t r = 0, at = 0; r < procs; ++r) {
+    const size_t count = fill[r];
+    if ((at + count) * sizeof(PlyParticle) > size_t(INT_MAX))
+      throw std::runtime_error("MPI: a process's particle records pass 2 GiB");
+    sdisp[r] = int(at * sizeof(PlyParticle));
+    send[r] = int(count * sizeof(PlyParticle));
+    fill[r] = at;  // where the next record for r goes
+    at += count;
+  }
+  std::vector<PlyParticle> packed;
+  for (const ParticleSet& s : world.sets) mine += s.size();
+  packed.resize(mine);
+  for (const ParticleSet& s : world.sets)
+    for (size_t i = 0; i < s.size(); ++i)
+      packed[fill[size_t(owner[bucketOf(s.id[i])])]++] = plyParticle(s, i);
+  MPI_Alltoall(send.data(), 1, MPI_INT, recv.data(), 1, MPI_INT, MPI_COMM_WORLD);
+  size_t received = 0;
+  for (size_t r = 0; r < procs; ++r) {
+    rdisp[r] = int(received);
+    received += size_t(recv[r]);
+  }
+  if (received > size_t(INT_MAX)) throw std::runtime_error("MPI: particle records pass 2 GiB");
+  std::vector<PlyParticle> run(received / sizeof(PlyParticle));
+  MPI_Alltoallv(packed.data(), send.data(), sdisp.data(), MPI_BYTE, run.data(), recv.data(),
+                rdisp.data(), MPI_BYTE, MPI_COMM_WORLD);
+  packed = {};
+  std::sort(run.begin(), run.end(),
+            [](const PlyParticle& a, const PlyParticle& b) { return a.id < b.id; });
+  uint64_t count = run.size(), before = 0;
+  MPI_Exscan(&count, &before, 1, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
+  if (root) before = 0;  // MPI_Exscan leaves process 0's undefined
+  return {std::move(run), total, before};
+}
+
 }  // namespace
 
 void RunSplit::checkSharedFolder(const std::string& out_dir) {
@@ -235,73 +304,48 @@ std::string RunSplit::writeCheckpointShared(const std::string& path, int frame,
   return tmp;
 }
 
-std::string RunSplit::writeParticlesShared(const std::string& path, const World& world) {
-  // The ids are cut into runs of about equal count, one per process in
-  // order; each process sorts the particles it is sent, and the runs lie in
-  // the file in process order: the file lists every particle by id.
-  const size_t procs = size_t(size_), buckets = 256 * procs;
-  uint64_t top = 0, mine = 0;
-  for (const ParticleSet& s : world.sets)
-    for (const uint32_t id : s.id) top = std::max<uint64_t>(top, id + 1);
-  std::vector<uint64_t> limit{top};
-  MPI_Allreduce(MPI_IN_PLACE, limit.data(), 1, MPI_UINT64_T, MPI_MAX, MPI_COMM_WORLD);
-  const uint64_t span = std::max<uint64_t>(1, limit[0]);
-  auto bucketOf = [&](uint32_t id) { return size_t(Wide(id) * buckets / span); };
-  std::vector<uint64_t> per_bucket(buckets, 0);
-  for (const ParticleSet& s : world.sets)
-    for (const uint32_t id : s.id) ++per_bucket[bucketOf(id)];
-  MPI_Allreduce(MPI_IN_PLACE, per_bucket.data(), int(buckets), MPI_UINT64_T, MPI_SUM,
-                MPI_COMM_WORLD);
-  const uint64_t total = std::accumulate(per_bucket.begin(), per_bucket.end(), uint64_t(0));
-  std::vector<int> owner(buckets);
-  for (size_t b = 0, before = 0; b < buckets; before += per_bucket[b], ++b)
-    owner[b] = int(std::min<uint64_t>(procs - 1, total ? before * procs / total : 0));
-  // Each particle's record to the process of its id's run, packed by
-  // destination in one array.
-  std::vector<int> send(procs, 0), recv(procs), sdisp(procs), rdisp(procs);
-  std::vector<size_t> fill(procs, 0);
-  for (const ParticleSet& s : world.sets)
-    for (const uint32_t id : s.id) ++fill[size_t(owner[bucketOf(id)])];
-  for (size_t r = 0, at = 0; r < procs; ++r) {
-    const size_t count = fill[r];
-    if ((at + count) * sizeof(PlyParticle) > size_t(INT_MAX))
-      throw std::runtime_error("MPI: a process's particle records pass 2 GiB");
-    sdisp[r] = int(at * sizeof(PlyParticle));
-    send[r] = int(count * sizeof(PlyParticle));
-    fill[r] = at;  // where the next record for r goes
-    at += count;
+RunSplit::SharedParticles RunSplit::writeParticlesShared(const std::string& ply,
+                                                         const std::string& vtp,
+                                                         const World& world) {
+  const IdRun ids = particlesByIdRun(world, size_t(size_), root());
+  const std::vector<PlyParticle>& run = ids.run;
+  SharedParticles written;
+  if (!ply.empty()) {
+    const std::string header = particlesPlyHeader(size_t(ids.total), world.time);
+    const uint64_t bytes = header.size() + ids.total * sizeof(PlyParticle);
+    written.ply = sharedTemporary(*domain_, root(), ply);
+    writeTogether(written.ply, ply, bytes, root(), [&](SharedFile& file) {
+      if (root()) file.write(0, header.data(), header.size());
+      file.write(header.size() + ids.before * sizeof(PlyParticle), run.data(),
+                 run.size() * sizeof(PlyParticle));
+    });
   }
-  std::vector<PlyParticle> packed;
-  for (const ParticleSet& s : world.sets) mine += s.size();
-  packed.resize(mine);
-  for (const ParticleSet& s : world.sets)
-    for (size_t i = 0; i < s.size(); ++i)
-      packed[fill[size_t(owner[bucketOf(s.id[i])])]++] = plyParticle(s, i);
-  MPI_Alltoall(send.data(), 1, MPI_INT, recv.data(), 1, MPI_INT, MPI_COMM_WORLD);
-  size_t received = 0;
-  for (size_t r = 0; r < procs; ++r) {
-    rdisp[r] = int(received);
-    received += size_t(recv[r]);
-  }
-  if (received > size_t(INT_MAX)) throw std::runtime_error("MPI: particle records pass 2 GiB");
-  std::vector<PlyParticle> run(received / sizeof(PlyParticle));
-  MPI_Alltoallv(packed.data(), send.data(), sdisp.data(), MPI_BYTE, run.data(), recv.data(),
-                rdisp.data(), MPI_BYTE, MPI_COMM_WORLD);
-  packed = {};
-  std::sort(run.begin(), run.end(),
-            [](const PlyParticle& a, const PlyParticle& b) { return a.id < b.id; });
-  uint64_t count = run.size(), before = 0;
-  MPI_Exscan(&count, &before, 1, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
-  if (root()) before = 0;  // MPI_Exscan leaves process 0's undefined
-  const std::string header = particlesPlyHeader(size_t(total), world.time);
-  const uint64_t bytes = header.size() + total * sizeof(PlyParticle);
-  const std::string tmp = sharedTemporary(*domain_, root(), path);
-  writeTogether(tmp, path, bytes, root(), [&](SharedFile& file) {
-    if (root()) file.write(0, header.data(), header.size());
-    file.write(header.size() + before * sizeof(PlyParticle), run.data(),
-               run.size() * sizeof(PlyParticle));
-  });
-  return tmp;
+  if (!vtp.empty()) try {
+      // Array by array, each process its run's entries, a chunk at a time.
+      const ParticlesVtpLayout layout = particlesVtpLayout(size_t(ids.total));
+      written.vtp = sharedTemporary(*domain_, root(), vtp);
+      writeTogether(written.vtp, vtp, layout.bytes, root(), [&](SharedFile& file) {
+        if (root())
+          for (const auto& [offset, bytes] : layout.fixed)
+            file.write(offset, bytes.data(), bytes.size());
+        std::vector<unsigned char> chunk;
+        for (int a = 0; a < ParticlesVtpLayout::kArrays; ++a) {
+          const uint64_t entry = layout.entry[a];
+          const size_t per_chunk = std::max<size_t>(1, kChunkBytes / entry);
+          for (size_t k = 0; k < run.size(); k += per_chunk) {
+            const size_t count = std::min(per_chunk, run.size() - k);
+            chunk.resize(count * entry);
+            packParticlesVtp(ParticlesVtpLayout::Array(a), run.data() + k, count, ids.before + k,
+                             chunk.data());
+            file.write(layout.values[a] + (ids.before + k) * entry, chunk.data(), chunk.size());
+          }
+        }
+      });
+    } catch (const std::exception&) {
+      if (root()) removeTemporaries({written.ply});
+      throw;
+    }
+  return written;
 }
 
 std::vector<VoxelSum> RunSplit::splatVolumesShared(const World& world, double h,
@@ -345,7 +389,8 @@ std::string RunSplit::writeCheckpointShared(const std::string&, int, const std::
                                             const World&, const SolverState&, const StepRecord&) {
   throw std::logic_error("writeCheckpointShared without MPI");
 }
-std::string RunSplit::writeParticlesShared(const std::string&, const World&) {
+RunSplit::SharedParticles RunSplit::writeParticlesShared(const std::string&, const std::string&,
+                                                         const World&) {
   throw std::logic_error("writeParticlesShared without MPI");
 }
 std::vector<VoxelSum> RunSplit::splatVolumesShared(const World&, double, VolumeScale&) {

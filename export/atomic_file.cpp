@@ -48,6 +48,14 @@ void moveIntoPlace(const std::string& tmp, const std::string& path) {
   throw std::runtime_error(path + ": cannot rename into place: " + ec.message());
 }
 
+void removeTemporaries(std::initializer_list<std::string> tmps) {
+  for (const std::string& tmp : tmps) {
+    if (tmp.empty()) continue;
+    std::error_code ignored;
+    fs::remove(tmp, ignored);
+  }
+}
+
 void makeDirectories(const std::string& path) {
   std::error_code ec;
   fs::create_directories(path, ec);

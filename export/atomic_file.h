@@ -2,6 +2,7 @@
 // Files written completely or not at all: data goes to a temporary name in
 // the same directory, is flushed, and is renamed over the target.
 #include <functional>
+#include <initializer_list>
 #include <ostream>
 #include <string>
 
@@ -20,6 +21,9 @@ void writeFileViaTemporary(const std::string& path,
 // Renames a temporary written elsewhere (by several processes at once) to
 // `path`; on failure removes it and throws std::runtime_error naming `path`.
 void moveIntoPlace(const std::string& tmp, const std::string& path);
+// Removes such temporaries (empty names are skipped), quietly: for the
+// files of a frame that failed.
+void removeTemporaries(std::initializer_list<std::string> tmps);
 
 // Creates a directory and its parents; throws std::runtime_error naming it.
 void makeDirectories(const std::string& path);

@@ -19,12 +19,16 @@ struct Array {
   std::string bytes;
 };
 
+std::string arrayXml(const std::string& type, const std::string& name, int components) {
+  return "<DataArray type=\"" + type + "\"" + (name.empty() ? "" : " Name=\"" + name + "\"") +
+         " NumberOfComponents=\"" + std::to_string(components) + "\" format=\"appended\"";
+}
+
 template <class T>
 Array makeArray(const std::string& type, const std::string& name, int components,
                 const std::vector<T>& values) {
   Array a;
-  a.xml = "<DataArray type=\"" + type + "\"" + (name.empty() ? "" : " Name=\"" + name + "\"") +
-          " NumberOfComponents=\"" + std::to_string(components) + "\" format=\"appended\"";
+  a.xml = arrayXml(type, name, components);
   a.bytes.assign(reinterpret_cast<const char*>(values.data()), values.size() * sizeof(T));
   return a;
 }
@@ -38,36 +42,60 @@ void sequentialCells(size_t n, int per, std::vector<int64_t>& connectivity,
   for (size_t i = 0; i < n; ++i) offsets[i] = int64_t((i + 1) * size_t(per));
 }
 
-// A PolyData file of one piece: points, point data, and one cell section
-// (`Verts` or `Polys`) given by its two arrays.
+// An array of the appended block as the file's XML describes it: its element
+// and its length in bytes.
+struct ArrayHead {
+  std::string xml;
+  uint64_t bytes = 0;
+};
+
+// A PolyData file of one piece: the XML before its appended data (up to and
+// with the '_' that opens it), for point data, points and one cell section
+// (`Verts` or `Polys`) given by its two arrays. The arrays' values follow
+// in that order, each after its byte count (the header type), then kTail.
+std::string polyDataHead(size_t points, const ArrayHead& positions,
+                         const std::vector<ArrayHead>& point_data, const std::string& cell_kind,
+                         size_t cells, const ArrayHead& connectivity, const ArrayHead& offsets) {
+  std::ostringstream out;
+  uint64_t offset = 0;
+  auto element = [&](const ArrayHead& a, const char* indent) {
+    out << indent << a.xml << " offset=\"" << offset << "\"/>\n";
+    offset += sizeof(uint64_t) + a.bytes;
+  };
+  out << "<?xml version=\"1.0\"?>\n"
+      << "<VTKFile type=\"PolyData\" version=\"1.0\" byte_order=\"LittleEndian\" "
+         "header_type=\"UInt64\">\n"
+      << "  <PolyData>\n"
+      << "    <Piece NumberOfPoints=\"" << points << "\" NumberOfVerts=\""
+      << (cell_kind == "Verts" ? cells : 0) << "\" NumberOfLines=\"0\" NumberOfStrips=\"0\" "
+      << "NumberOfPolys=\"" << (cell_kind == "Polys" ? cells : 0) << "\">\n";
+  out << "      <PointData>\n";
+  for (const ArrayHead& a : point_data) element(a, "        ");
+  out << "      </PointData>\n      <Points>\n";
+  element(positions, "        ");
+  out << "      </Points>\n      <" << cell_kind << ">\n";
+  element(connectivity, "        ");
+  element(offsets, "        ");
+  out << "      </" << cell_kind << ">\n    </Piece>\n  </PolyData>\n"
+      << "  <AppendedData encoding=\"raw\">\n   _";
+  return out.str();
+}
+constexpr char kTail[] = "\n  </AppendedData>\n</VTKFile>\n";
+
+ArrayHead headOf(const Array& a) {
+  return {a.xml, a.bytes.size()};
+}
+
 void writePolyData(const std::string& path, size_t points, const Array& positions,
                    const std::vector<Array>& point_data, const std::string& cell_kind, size_t cells,
                    const Array& connectivity, const Array& offsets) {
   static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "VTK writer assumes little-endian");
+  std::vector<ArrayHead> heads;
+  for (const Array& a : point_data) heads.push_back(headOf(a));
+  const std::string head = polyDataHead(points, headOf(positions), heads, cell_kind, cells,
+                                        headOf(connectivity), headOf(offsets));
   writeFileAtomically(path, [&](std::ostream& out) {
-    uint64_t offset = 0;
-    auto element = [&](const Array& a, const char* indent) {
-      out << indent << a.xml << " offset=\"" << offset << "\"/>\n";
-      offset += sizeof(uint64_t) + a.bytes.size();
-    };
-    out << "<?xml version=\"1.0\"?>\n"
-        << "<VTKFile type=\"PolyData\" version=\"1.0\" byte_order=\"LittleEndian\" "
-           "header_type=\"UInt64\">\n"
-        << "  <PolyData>\n"
-        << "    <Piece NumberOfPoints=\"" << points << "\" NumberOfVerts=\""
-        << (cell_kind == "Verts" ? cells : 0) << "\" NumberOfLines=\"0\" NumberOfStrips=\"0\" "
-        << "NumberOfPolys=\"" << (cell_kind == "Polys" ? cells : 0) << "\">\n";
-    out << "      <PointData>\n";
-    for (const Array& a : point_data) element(a, "        ");
-    out << "      </PointData>\n      <Points>\n";
-    element(positions, "        ");
-    out << "      </Points>\n      <" << cell_kind << ">\n";
-    element(connectivity, "        ");
-    element(offsets, "        ");
-    out << "      </" << cell_kind << ">\n    </Piece>\n  </PolyData>\n"
-        << "  <AppendedData encoding=\"raw\">\n   _";
-    // Each array: its byte count (the header type), then its bytes, in the
-    // order the offsets above were given.
+    out << head;
     auto data = [&](const Array& a) {
       const uint64_t n = a.bytes.size();
       out.write(reinterpret_cast<const char*>(&n), sizeof(n));
@@ -77,9 +105,21 @@ void writePolyData(const std::string& path, size_t points, const Array& position
     data(positions);
     data(connectivity);
     data(offsets);
-    out << "\n  </AppendedData>\n</VTKFile>\n";
+    out << kTail;
   });
 }
+
+// The particle file's arrays, in the order of ParticlesVtpLayout::Array.
+struct Kind {
+  const char* type;
+  const char* name;
+  int components;
+  uint64_t bytes;  // per entry
+};
+const Kind kParticleArrays[] = {{"Float32", "velocity", 3, 12}, {"UInt32", "id", 1, 4},
+                                {"Int32", "object", 1, 4},      {"Float32", "J", 1, 4},
+                                {"Float32", "", 3, 12},         {"Int64", "connectivity", 1, 8},
+                                {"Int64", "offsets", 1, 8}};
 
 std::string xmlEscaped(const std::string& s) {
   std::string out;
@@ -119,11 +159,78 @@ void writeParticlesVtp(const std::string& path, const World& world) {
   }
   std::vector<int64_t> connectivity, offsets;
   sequentialCells(n, 1, connectivity, offsets);
-  writePolyData(path, n, makeArray("Float32", "", 3, x),
-                {makeArray("Float32", "velocity", 3, v), makeArray("UInt32", "id", 1, id),
-                 makeArray("Int32", "object", 1, object), makeArray("Float32", "J", 1, J)},
-                "Verts", n, makeArray("Int64", "connectivity", 1, connectivity),
-                makeArray("Int64", "offsets", 1, offsets));
+  auto array = [](ParticlesVtpLayout::Array a, const auto& values) {
+    const Kind& k = kParticleArrays[a];
+    return makeArray(k.type, k.name, k.components, values);
+  };
+  using L = ParticlesVtpLayout;
+  writePolyData(path, n, array(L::Points, x),
+                {array(L::Velocity, v), array(L::Id, id), array(L::Object, object), array(L::J, J)},
+                "Verts", n, array(L::Connectivity, connectivity), array(L::Offsets, offsets));
+}
+
+ParticlesVtpLayout particlesVtpLayout(size_t n) {
+  ParticlesVtpLayout layout;
+  ArrayHead heads[ParticlesVtpLayout::kArrays];
+  for (int a = 0; a < ParticlesVtpLayout::kArrays; ++a) {
+    const Kind& k = kParticleArrays[a];
+    heads[a] = {arrayXml(k.type, k.name, k.components), uint64_t(n) * k.bytes};
+  }
+  using L = ParticlesVtpLayout;
+  const std::string head = polyDataHead(
+      n, heads[L::Points], {heads[L::Velocity], heads[L::Id], heads[L::Object], heads[L::J]},
+      "Verts", n, heads[L::Connectivity], heads[L::Offsets]);
+  layout.fixed.emplace_back(0, head);
+  uint64_t at = head.size();
+  for (int a = 0; a < ParticlesVtpLayout::kArrays; ++a) {
+    const uint64_t bytes = heads[a].bytes;
+    layout.fixed.emplace_back(at,
+                              std::string(reinterpret_cast<const char*>(&bytes), sizeof(bytes)));
+    layout.values[a] = at + sizeof(bytes);
+    layout.entry[a] = kParticleArrays[a].bytes;
+    at = layout.values[a] + bytes;
+  }
+  layout.fixed.emplace_back(at, kTail);
+  layout.bytes = at + sizeof(kTail) - 1;
+  return layout;
+}
+
+void packParticlesVtp(ParticlesVtpLayout::Array a, const PlyParticle* particles, size_t count,
+                      uint64_t first, unsigned char* out) {
+  using L = ParticlesVtpLayout;
+  for (size_t k = 0; k < count; ++k) {
+    const PlyParticle& p = particles[k];
+    unsigned char* at = out + k * kParticleArrays[a].bytes;
+    auto put = [&](const auto&... values) {
+      size_t o = 0;
+      ((std::memcpy(at + o, &values, sizeof(values)), o += sizeof(values)), ...);
+    };
+    switch (a) {
+      case L::Velocity:
+        put(p.vx, p.vy, p.vz);
+        break;
+      case L::Id:
+        put(uint32_t(p.id));
+        break;
+      case L::Object:
+        put(p.object);
+        break;
+      case L::J:
+        put(p.J);
+        break;
+      case L::Points:
+        put(p.x, p.y, p.z);
+        break;
+      case L::Connectivity:
+        put(int64_t(first + k));
+        break;
+      case L::Offsets:
+        put(int64_t(first + k + 1));
+        break;
+      case L::kArrays:
+        break;
+    }
+  }
 }
 
 void writeSurfaceVtp(const std::string& path, const TriSurface& surface) {

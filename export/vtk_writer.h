@@ -14,9 +14,12 @@
 // compression), written by hand: the format is a few lines of XML, and
 // linking VTK's C++ libraries for it would add hundreds of megabytes to the
 // build.
+#include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
+#include "export/ply_writer.h"
 #include "sim/solids/collision_particles.h"
 #include "sim/world.h"
 
@@ -25,6 +28,27 @@ namespace triad {
 // Each throws std::runtime_error naming the file; each writes atomically.
 void writeParticlesVtp(const std::string& path, const World& world);
 void writeSurfaceVtp(const std::string& path, const TriSurface& surface);
+
+// Where writeParticlesVtp's file of n particles keeps what, for writers
+// that fill its arrays in parts (each MPI process its run of ids): the
+// bytes that do not depend on the particles' values (the XML before the
+// appended data, each array's byte count, the closing XML), by file
+// offset, and where each array's first value lies. Entry k of an array is
+// at values[array] + k * entry[array], in increasing id: Float32 velocity,
+// UInt32 id, Int32 object, Float32 J, Float32 points, Int64 connectivity
+// (k itself) and Int64 offsets (k + 1).
+struct ParticlesVtpLayout {
+  enum Array { Velocity, Id, Object, J, Points, Connectivity, Offsets, kArrays };
+  std::vector<std::pair<uint64_t, std::string>> fixed;
+  uint64_t values[kArrays] = {};
+  uint64_t entry[kArrays] = {};
+  uint64_t bytes = 0;  // the whole file
+};
+ParticlesVtpLayout particlesVtpLayout(size_t n);
+// Array a's entries for `count` particles in id order, whose first is the
+// file's entry `first`, into out (count * entry[a] bytes).
+void packParticlesVtp(ParticlesVtpLayout::Array a, const PlyParticle* particles, size_t count,
+                      uint64_t first, unsigned char* out);
 
 // One entry of a .pvd collection: the file (relative to the .pvd), its time,
 // and the series it belongs to (its part; `name` labels the part's block).

@@ -3,6 +3,7 @@
 // body state (format version 2 on), and bodies in previews.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -10,6 +11,7 @@
 
 #include "export/body_writer.h"
 #include "export/checkpoint.h"
+#include "export/vtk_writer.h"
 #include "render/mesh_ply_reader.h"
 #include "render/preview_writer.h"
 #include "scene_fixture.h"
@@ -433,6 +435,46 @@ TEST(CheckpointLayout, SharesWrittenAtTheirPlacesMakeTheSingleProcessFile) {
   const Checkpoint c = readCheckpoint((dir / "assembled.bin").string());
   EXPECT_EQ(c.sets[0].x, w.sets[0].x);
   EXPECT_EQ(c.sets[1].J, w.sets[1].J);
+}
+
+// The particles' VTK file assembled from its layout, with each array's
+// entries written in two runs of ids at their places (as two MPI processes
+// write it), is the file the single writer makes.
+TEST(ParticlesVtpLayout, RunsWrittenAtTheirPlacesMakeTheSingleWritersFile) {
+  const fs::path dir = test::tempDir("vtp_layout");
+  json scene = bodiesScene();
+  scene["materials"]["water"] = {{"model", "water"}, {"density", 1000}, {"bulk_modulus", 1e5}};
+  scene["objects"].push_back({{"name", "pool"},
+                              {"kind", "mpm"},
+                              {"material", "water"},
+                              {"shape", test::box({0.6, 0.1, 0.1}, {0.9, 0.2, 0.3})}});
+  World w = test::loadWorld(dir, scene);
+  ASSERT_EQ(w.sets.size(), 2u);
+  perturb(w, 0, 1.0);
+  // Ids out of the sets' order: the file lists them by id.
+  std::reverse(w.sets[1].id.begin(), w.sets[1].id.end());
+  const std::string path = (dir / "particles.0003.vtp").string();
+  writeParticlesVtp(path, w);
+  const std::string expected = slurp(path);
+
+  std::vector<PlyParticle> sorted;
+  for (const ParticleRef& r : particlesById(w))
+    sorted.push_back(plyParticle(w.sets[r.set], r.index));
+  const size_t n = sorted.size(), cut = n / 3;
+  const ParticlesVtpLayout layout = particlesVtpLayout(n);
+  ASSERT_EQ(layout.bytes, expected.size());
+  std::string file(layout.bytes, '\x55');
+  for (const auto& [offset, bytes] : layout.fixed) file.replace(offset, bytes.size(), bytes);
+  for (int a = 0; a < ParticlesVtpLayout::kArrays; ++a) {
+    const auto array = ParticlesVtpLayout::Array(a);
+    for (const auto& [first, count] : {std::pair{size_t(0), cut}, {cut, n - cut}}) {
+      std::vector<unsigned char> part(count * layout.entry[a]);
+      packParticlesVtp(array, sorted.data() + first, count, first, part.data());
+      std::memcpy(file.data() + layout.values[a] + first * layout.entry[a], part.data(),
+                  part.size());
+    }
+  }
+  EXPECT_TRUE(file == expected);
 }
 
 TEST(PreviewBodies, FrameFromWorldDrawsEveryBodyInItsObjectColour) {

@@ -71,6 +71,12 @@ fs::path frameVdb(const fs::path& out, int frame) {
   return out / "volumes" / name;
 }
 
+fs::path frameVtp(const fs::path& out, int frame) {
+  char name[32];
+  std::snprintf(name, sizeof(name), "particles.%04d.vtp", frame);
+  return out / "vtk" / name;
+}
+
 // Whether two files exist and hold the same bytes.
 bool sameFile(const fs::path& a, const fs::path& b) {
   return fs::exists(a) && fs::exists(b) && test::slurp(a) == test::slurp(b);
@@ -184,7 +190,9 @@ class Mpi : public ::testing::Test {
 TEST_F(Mpi, TwoAndThreeProcessesAgreeWithOne) {
   const fs::path dir = test::tempDir("agree");
   const int frames = 6;
-  const std::string scene = test::writeScene(dir, everyMaterial(frames));
+  json j = everyMaterial(frames);
+  j["output"]["vtk"] = true;
+  const std::string scene = test::writeScene(dir, j);
   const test::CliResult one = run(dir, scene, dir / "one", "OMP_NUM_THREADS=1");
   ASSERT_EQ(one.status, 0) << one.err;
   EXPECT_FALSE(runJson(dir / "one").contains("mpi"));
@@ -225,6 +233,7 @@ TEST_F(Mpi, TwoAndThreeProcessesAgreeWithOne) {
           << n << " processes, frame " << f;
       EXPECT_TRUE(sameFile(framePly(out, f), framePly(dir / "one", f))) << n << " frame " << f;
       EXPECT_TRUE(sameFile(frameVdb(out, f), frameVdb(dir / "one", f))) << n << " frame " << f;
+      EXPECT_TRUE(sameFile(frameVtp(out, f), frameVtp(dir / "one", f))) << n << " frame " << f;
     }
     // And so are the checkpoints the processes wrote together.
     for (const char* ckpt : {"state.0005.bin", "state.0006.bin"})
@@ -299,7 +308,7 @@ TEST_F(Mpi, EachProcessBuildsOnlyItsShare) {
 TEST_F(Mpi, NoProcessGathersTheCacheWithoutPreviews) {
   const fs::path dir = test::tempDir("write_together");
   auto scene = [&](const char* name, std::array<double, 3> hi) {
-    return jellyCube(dir, name, hi, {{"ply", true}, {"vdb", true}, {"png", false}});
+    return jellyCube(dir, name, hi, {{"ply", true}, {"vdb", true}, {"vtk", true}, {"png", false}});
   };
   const std::string big = scene("together_big", {0.65, 0.35, 0.75});  // 400,000 particles
   const std::string tiny = scene("together_tiny", {0.3, 0.15, 0.3});
@@ -318,21 +327,22 @@ TEST_F(Mpi, NoProcessGathersTheCacheWithoutPreviews) {
              gathered = runJson(dir / "big_gathered")["mpi"];
   EXPECT_EQ(together["gathered"], "nothing");
   EXPECT_EQ(together["written_by_every_process"],
-            json::array({"particles", "volumes", "checkpoints"}));
+            json::array({"particles", "volumes", "vtk particles", "checkpoints"}));
   EXPECT_EQ(gathered["gathered"], "every attribute");
-  EXPECT_EQ(gathered["gathered_for"], json::array({"particles", "checkpoints"}));
+  EXPECT_EQ(gathered["gathered_for"], json::array({"vtk particles", "particles", "checkpoints"}));
   // The same files either way.
   for (int f = 0; f <= 2; ++f) {
     EXPECT_TRUE(sameFile(framePly(dir / "big", f), framePly(dir / "big_gathered", f))) << f;
     EXPECT_TRUE(sameFile(frameVdb(dir / "big", f), frameVdb(dir / "big_gathered", f))) << f;
+    EXPECT_TRUE(sameFile(frameVtp(dir / "big", f), frameVtp(dir / "big_gathered", f))) << f;
   }
   for (const char* ckpt : {"state.0001.bin", "state.0002.bin"})
     EXPECT_TRUE(
         sameFile(dir / "big" / "checkpoints" / ckpt, dir / "big_gathered" / "checkpoints" / ckpt))
         << ckpt;
   // Process 0's peak above a particle-less run's, against the whole
-  // world's particle bytes: 0.66 when every process writes (process 1:
-  // 0.56; process 0 adds up the volumes' voxels), 3.07 when it gathers
+  // world's particle bytes: 0.67 when every process writes (process 1:
+  // 0.56; process 0 adds up the volumes' voxels), 3.99 when it gathers
   // them.
   const double whole_bytes = 400000.0 * 102.0;
   auto over = [&](const char* out, const char* base, int p) {
@@ -377,6 +387,24 @@ TEST_F(Mpi, AFailedSharedWriteEndsTheRunAndItResumes) {
   EXPECT_NE(resumed.err.find("resuming after frame 1"), std::string::npos) << resumed.err;
   for (int f = 0; f <= 3; ++f)
     EXPECT_TRUE(sameFile(framePly(out, f), framePly(dir / "one", f))) << f;
+
+  // With VTK files too, process 2 fails the fifth file, frame 1's VTK
+  // particles: the frame's PLY, which its processes had written, goes too.
+  json j = everyMaterial(2);
+  j["output"]["vtk"] = true;
+  const std::string with_vtk = test::writeScene(dir, j, "with_vtk.json");
+  const fs::path vtk_out = dir / "np2_vtk";
+  const test::CliResult v =
+      run(dir, with_vtk, vtk_out, "TRIAD_FAULT_SHARED_WRITE=2:4 " + mpirun(3));
+  EXPECT_NE(v.status, 0);
+  EXPECT_NE(v.err.find("particles.0001.vtp: a process could not write its part"), std::string::npos)
+      << v.err;
+  EXPECT_TRUE(fs::exists(frameVtp(vtk_out, 0)));
+  EXPECT_FALSE(fs::exists(frameVtp(vtk_out, 1)));
+  EXPECT_FALSE(fs::exists(framePly(vtk_out, 1)));
+  for (const char* sub : {"particles", "checkpoints", "vtk"})
+    for (const auto& e : fs::directory_iterator(vtk_out / sub))
+      EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << e.path();
 }
 
 // For a fixed number of processes the bytes do not depend on the threads.
