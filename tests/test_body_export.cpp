@@ -363,19 +363,25 @@ TEST(FileChecksum, PartsInAnyOrderAndAnyCutAddUpToTheWhole) {
   EXPECT_NE(longer.value(), whole.value());
 }
 
-// A split run's checkpoint: process 0 writes the layout's pieces and every
-// process its particles at their places, each summing what it wrote. Done
-// here for two shares of every set (one of them empty for one set): the
-// bytes are those of one process's checkpoint of the whole world.
-TEST(CheckpointLayout, SharesWrittenAtTheirPlacesMakeTheSingleProcessFile) {
-  const fs::path dir = test::tempDir("ckpt_layout");
+// bodiesScene() with a pool of water beside: two particle sets, one with F
+// and one with J.
+json bodiesAndPoolScene() {
   json scene = bodiesScene();
   scene["materials"]["water"] = {{"model", "water"}, {"density", 1000}, {"bulk_modulus", 1e5}};
   scene["objects"].push_back({{"name", "pool"},
                               {"kind", "mpm"},
                               {"material", "water"},
                               {"shape", test::box({0.6, 0.1, 0.1}, {0.9, 0.2, 0.3})}});
-  World w = test::loadWorld(dir, scene);
+  return scene;
+}
+
+// A split run's checkpoint: process 0 writes the layout's pieces and every
+// process its particles at their places, each summing what it wrote. Done
+// here for two shares of every set (one of them empty for one set): the
+// bytes are those of one process's checkpoint of the whole world.
+TEST(CheckpointLayout, SharesWrittenAtTheirPlacesMakeTheSingleProcessFile) {
+  const fs::path dir = test::tempDir("ckpt_layout");
+  World w = test::loadWorld(dir, bodiesAndPoolScene());
   ASSERT_EQ(w.sets.size(), 2u);
   perturb(w, 0, 1.0);
   w.time = 0.25;
@@ -442,13 +448,7 @@ TEST(CheckpointLayout, SharesWrittenAtTheirPlacesMakeTheSingleProcessFile) {
 // write it), is the file the single writer makes.
 TEST(ParticlesVtpLayout, RunsWrittenAtTheirPlacesMakeTheSingleWritersFile) {
   const fs::path dir = test::tempDir("vtp_layout");
-  json scene = bodiesScene();
-  scene["materials"]["water"] = {{"model", "water"}, {"density", 1000}, {"bulk_modulus", 1e5}};
-  scene["objects"].push_back({{"name", "pool"},
-                              {"kind", "mpm"},
-                              {"material", "water"},
-                              {"shape", test::box({0.6, 0.1, 0.1}, {0.9, 0.2, 0.3})}});
-  World w = test::loadWorld(dir, scene);
+  World w = test::loadWorld(dir, bodiesAndPoolScene());
   ASSERT_EQ(w.sets.size(), 2u);
   perturb(w, 0, 1.0);
   // Ids out of the sets' order: the file lists them by id.
