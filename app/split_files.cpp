@@ -320,31 +320,33 @@ RunSplit::SharedParticles RunSplit::writeParticlesShared(const std::string& ply,
                  run.size() * sizeof(PlyParticle));
     });
   }
-  if (!vtp.empty()) try {
-      // Array by array, each process its run's entries, a chunk at a time.
-      const ParticlesVtpLayout layout = particlesVtpLayout(size_t(ids.total));
-      written.vtp = sharedTemporary(*domain_, root(), vtp);
-      writeTogether(written.vtp, vtp, layout.bytes, root(), [&](SharedFile& file) {
-        if (root())
-          for (const auto& [offset, bytes] : layout.fixed)
-            file.write(offset, bytes.data(), bytes.size());
-        std::vector<unsigned char> chunk;
-        for (int a = 0; a < ParticlesVtpLayout::kArrays; ++a) {
-          const uint64_t entry = layout.entry[a];
-          const size_t per_chunk = std::max<size_t>(1, kChunkBytes / entry);
-          for (size_t k = 0; k < run.size(); k += per_chunk) {
-            const size_t count = std::min(per_chunk, run.size() - k);
-            chunk.resize(count * entry);
-            packParticlesVtp(ParticlesVtpLayout::Array(a), run.data() + k, count, ids.before + k,
-                             chunk.data());
-            file.write(layout.values[a] + (ids.before + k) * entry, chunk.data(), chunk.size());
-          }
+  if (vtp.empty()) return written;
+  try {
+    // Array by array, each process its run's entries, a chunk at a time.
+    const ParticlesVtpLayout layout = particlesVtpLayout(size_t(ids.total));
+    written.vtp = sharedTemporary(*domain_, root(), vtp);
+    writeTogether(written.vtp, vtp, layout.bytes, root(), [&](SharedFile& file) {
+      if (root())
+        for (const auto& [offset, bytes] : layout.fixed)
+          file.write(offset, bytes.data(), bytes.size());
+      std::vector<unsigned char> chunk;
+      for (int a = 0; a < ParticlesVtpLayout::kArrays; ++a) {
+        const uint64_t entry = layout.entry[a];
+        const size_t per_chunk = std::max<size_t>(1, kChunkBytes / entry);
+        for (size_t k = 0; k < run.size(); k += per_chunk) {
+          const size_t count = std::min(per_chunk, run.size() - k);
+          chunk.resize(count * entry);
+          packParticlesVtp(ParticlesVtpLayout::Array(a), run.data() + k, count, ids.before + k,
+                           chunk.data());
+          file.write(layout.values[a] + (ids.before + k) * entry, chunk.data(), chunk.size());
         }
-      });
-    } catch (const std::exception&) {
-      if (root()) removeTemporaries({written.ply});
-      throw;
-    }
+      }
+    });
+  } catch (const std::exception&) {
+    // Neither goes into place: the PLY its processes wrote goes too.
+    if (root()) removeTemporaries({written.ply});
+    throw;
+  }
   return written;
 }
 
