@@ -261,8 +261,6 @@ std::vector<std::pair<int, TriSurface>> writeFrameCaches(const SceneDesc& scene,
     info.scene_name = scene.name;
     info.voxel_size = voxel;
     info.surface = scene.output.vdb_surface;
-    if (shared.surfaces && shared.surfaces->count(-1))
-      info.surface_parts = &shared.surfaces->at(-1);
     if (shared.volumes)
       writeVolumesVdb(volumesPath(out_dir, frame), shared.volumes->sums, shared.volumes->scale,
                       world, info);
@@ -277,9 +275,7 @@ std::vector<std::pair<int, TriSurface>> writeFrameCaches(const SceneDesc& scene,
     settings.adaptivity = scene.output.surface_adaptivity;
     for (int m : surfaceMaterials(scene)) {
       const std::string& name = scene.materials[size_t(m)].name;
-      TriSurface mesh = shared.surfaces && shared.surfaces->count(m)
-                            ? materialSurfaceMesh(shared.surfaces->at(m), settings)
-                            : materialSurfaceMesh(world, m, settings);
+      TriSurface mesh = materialSurfaceMesh(world, m, settings);
       if (scene.output.surface_mesh) {
         char comment[96];
         std::snprintf(comment, sizeof(comment), "surface of material %s at t=%.9g s",

@@ -2,7 +2,6 @@
 // The files of one frame (particles, volumes, rigid bodies, checkpoint) and
 // finding where a killed run can resume. runScene (app/run_scene.cpp) calls
 // these in order.
-#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -54,9 +53,6 @@ struct SharedWrites {
     VolumeScale scale;
   };
   std::shared_ptr<const Volumes> volumes;
-  // The surfaces' rasters of every process, by material (-1: the volumes'
-  // level set); null: from the world's particles.
-  std::shared_ptr<const std::map<int, SphereUnionParts>> surfaces;
 };
 
 // Writes the frame's cache files that the scene asks for: PLY particles, the

@@ -386,17 +386,7 @@ int runScene(const RunOptions& options_in) {
   // into, and what process 0 gathers of every particle for the rest.
   const bool shared_files = split.active() && split.sharedFiles();
   const bool shared_volumes = split.active() && scene.output.vdb;
-  const RunSplit::Gather gather = split.planOutput(scene, rec);
-  // Split over processes, each rasterises its own particles for the
-  // surfaces: those of the materials' meshes (or surface previews) and the
-  // volumes' level set.
-  std::vector<int> shared_surfaces;
-  if (split.active()) {
-    if (scene.output.surface_mesh ||
-        (scene.output.png && scene.render.style == RenderStyle::Surface))
-      shared_surfaces = surfaceMaterials(scene);
-    if (scene.output.vdb && scene.output.vdb_surface) shared_surfaces.push_back(-1);
-  }
+  const RunSplit::Gather gather = split.planOutput(scene.output, rec);
   const double vdb_voxel =
       scene.output.vdb_voxel_size > 0 ? scene.output.vdb_voxel_size : scene.domain.dx;
   auto writeFrame = [&](int frame) {
@@ -425,8 +415,6 @@ int runScene(const RunOptions& options_in) {
       if (split.root()) removeTemporaries({shared.particles, shared.vtk_particles});
       throw;
     }
-    if (!shared_surfaces.empty())
-      shared.surfaces = split.uniteSurfacesShared(world, shared_surfaces, vdb_voxel);
     if (shared_volumes) {
       auto volumes = std::make_shared<SharedWrites::Volumes>();
       volumes->sums = split.splatVolumesShared(world, vdb_voxel, volumes->scale);

@@ -205,20 +205,20 @@ void RunSplit::abort(int code) {
 
 #endif
 
-RunSplit::Gather RunSplit::planOutput(const SceneDesc& scene, RunRecord& rec) const {
+RunSplit::Gather RunSplit::planOutput(const OutputDesc& o, RunRecord& rec) const {
   if (!active()) return Gather::None;
-  const OutputDesc& o = scene.output;
   const bool together = shared_files_;
   const bool whole = !together && (o.ply || o.vtk || o.checkpoints);
-  const bool sprites = o.png && scene.render.style == RenderStyle::Particles;
-  const Gather gather = whole ? Gather::Whole : sprites ? Gather::Positions : Gather::None;
+  const bool positions = o.png || o.surface_mesh || (o.vdb && o.vdb_surface);
+  const Gather gather = whole ? Gather::Whole : positions ? Gather::Positions : Gather::None;
   for (const auto& [on, each, name] : {std::tuple{o.ply, together, "particles"},
                                        {o.vdb, true, "volumes"},
-                                       {o.surface_mesh, true, "surfaces"},
                                        {o.vtk, together, "vtk particles"},
                                        {o.checkpoints, together, "checkpoints"}})
     if (on && each) rec.mpi_files_together.push_back(name);
-  for (const auto& [on, name] : {std::pair{sprites, "previews"},
+  for (const auto& [on, name] : {std::pair{o.png, "previews"},
+                                 {o.surface_mesh, "surfaces"},
+                                 {o.vdb && o.vdb_surface, "volumes' surface"},
                                  {o.vtk && !together, "vtk particles"},
                                  {o.ply && !together, "particles"},
                                  {o.checkpoints && !together, "checkpoints"}})

@@ -4,7 +4,6 @@
 // pipeline reads the same either way. Process 0 writes the cache; the
 // others simulate their share and send their particles to it each frame.
 #include <cstdint>
-#include <map>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -17,11 +16,11 @@ struct SceneDesc;
 class ParticleShare;
 class Solver;
 struct RunRecord;
+struct OutputDesc;
 struct SolverState;
 struct StepRecord;
 struct VoxelSum;
 struct VolumeScale;
-struct SphereUnionParts;
 class MpiDomain;
 
 // A failure that every process of a split run meets together (they agreed
@@ -63,17 +62,15 @@ class RunSplit {
   // What process 0 needs of every particle for a frame's files.
   enum class Gather {
     None,       // nothing: a copy of its world without particles
-    Positions,  // positions and objects (previews that draw particles)
+    Positions,  // positions and objects (previews, surfaces)
     Whole       // every attribute
   };
   // What process 0 gathers of every particle for the frames' files that
-  // `scene.output` asks for: previews that draw particles read positions
-  // alone; a particle cache, VTK file or checkpoint that process 0 writes
-  // alone (sharedFiles() false), every attribute. The volumes' density and
-  // velocity each process splats itself, and each rasterises its own
-  // particles for the surfaces (uniteSurfacesShared). Says so in `rec`'s
-  // mpi fields.
-  Gather planOutput(const SceneDesc& scene, RunRecord& rec) const;
+  // `output` asks for: previews and surfaces read positions alone; VTK
+  // files, and a particle cache or checkpoint that process 0 writes alone
+  // (sharedFiles() false), every attribute. The volumes' density and
+  // velocity each process splats itself. Says so in `rec`'s mpi fields.
+  Gather planOutput(const OutputDesc& output, RunRecord& rec) const;
   // The world with every process's particles, on process 0 (null on the
   // others). The world's own particles are set aside while it is copied,
   // not copied.
@@ -104,12 +101,6 @@ class RunSplit {
   // particles on voxels of size h, added up on process 0 (empty on the
   // others), and the scale they share.
   std::vector<VoxelSum> splatVolumesShared(const World& world, double h, VolumeScale& scale);
-  // Collective: every process rasterises its own particles' spheres for
-  // the surface of each of `materials` (-1: every material, the volumes'
-  // level set) with the sampling of the whole world at `voxel`; process 0
-  // holds every process's part (the others none).
-  std::shared_ptr<const std::map<int, SphereUnionParts>> uniteSurfacesShared(
-      const World& world, const std::vector<int>& materials, double voxel);
   // Sums over processes.
   double sum(double value);
   // The largest pending signal of any process (0: none).

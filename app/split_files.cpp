@@ -18,7 +18,6 @@
 #include "app/run_split.h"
 #include "export/atomic_file.h"
 #include "export/checkpoint.h"
-#include "export/particle_surface.h"
 #include "export/ply_writer.h"
 #include "export/vdb_writer.h"
 #include "export/vtk_writer.h"
@@ -351,49 +350,6 @@ RunSplit::SharedParticles RunSplit::writeParticlesShared(const std::string& ply,
   return written;
 }
 
-std::shared_ptr<const std::map<int, SphereUnionParts>> RunSplit::uniteSurfacesShared(
-    const World& world, const std::vector<int>& materials, double voxel) {
-  auto out = std::make_shared<std::map<int, SphereUnionParts>>();
-  const size_t procs = size_t(size_);
-  for (const int m : materials) {
-    // The whole world's sampling, from every process's own.
-    const SurfaceSampling mine = surfaceSampling(world, voxel, m);
-    const double local[3] = {mine.radius, mine.voxel_size, mine.erosion};
-    std::vector<double> all(3 * procs);
-    MPI_Allgather(local, 3, MPI_DOUBLE, all.data(), 3, MPI_DOUBLE, MPI_COMM_WORLD);
-    std::vector<SurfaceSampling> each(procs);
-    for (size_t r = 0; r < procs; ++r) each[r] = {all[3 * r], all[3 * r + 1], all[3 * r + 2]};
-    SphereUnionParts& parts = (*out)[m];
-    parts.sampling = combinedSampling(each);
-    // Each process's raster to process 0, in process order.
-    const std::string part =
-        parts.sampling.radius > 0.0 ? sphereUnionPart(world, parts.sampling, m) : std::string();
-    if (part.size() > size_t(INT_MAX))
-      throw std::runtime_error("MPI: a process's raster of a surface passes 2 GiB");
-    int bytes = int(part.size());
-    std::vector<int> counts(procs), displs(procs);
-    MPI_Gather(&bytes, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, MPI_COMM_WORLD);
-    std::string received;
-    if (root()) {
-      size_t total = 0;
-      for (size_t r = 0; r < procs; ++r) {
-        if (total > size_t(INT_MAX))
-          throw std::runtime_error("MPI: a surface's rasters pass 2 GiB");
-        displs[r] = int(total);
-        total += size_t(counts[r]);
-      }
-      received.resize(total);
-    }
-    MPI_Gatherv(part.data(), bytes, MPI_BYTE, received.data(), counts.data(), displs.data(),
-                MPI_BYTE, 0, MPI_COMM_WORLD);
-    if (!root()) continue;
-    for (size_t r = 0; r < procs; ++r)
-      if (counts[r] > 0)
-        parts.parts.push_back(received.substr(size_t(displs[r]), size_t(counts[r])));
-  }
-  return out;
-}
-
 std::vector<VoxelSum> RunSplit::splatVolumesShared(const World& world, double h,
                                                    VolumeScale& scale) {
   // One scale for all, from the largest mass and momentum of any process.
@@ -438,10 +394,6 @@ std::string RunSplit::writeCheckpointShared(const std::string&, int, const std::
 RunSplit::SharedParticles RunSplit::writeParticlesShared(const std::string&, const std::string&,
                                                          const World&) {
   throw std::logic_error("writeParticlesShared without MPI");
-}
-std::shared_ptr<const std::map<int, SphereUnionParts>> RunSplit::uniteSurfacesShared(
-    const World&, const std::vector<int>&, double) {
-  throw std::logic_error("uniteSurfacesShared without MPI");
 }
 std::vector<VoxelSum> RunSplit::splatVolumesShared(const World&, double, VolumeScale&) {
   throw std::logic_error("splatVolumesShared without MPI");

@@ -18,9 +18,5 @@ namespace triad {
 // can use it.
 openvdb::FloatGrid::Ptr particleLevelSet(const World& world, const SurfaceSampling& s, int material,
                                          double half_width = 3.0);
-// The same from the rasters of a split run's processes (SphereUnionParts):
-// united voxel by voxel as one raster of every sphere, then solved and cut
-// as above.
-openvdb::FloatGrid::Ptr particleLevelSet(const SphereUnionParts& parts, double half_width = 3.0);
 
 }  // namespace triad

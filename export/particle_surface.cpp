@@ -9,20 +9,22 @@
 
 namespace triad {
 
-namespace {
-
-// The mesh of a material's level set with sampling s: eroded onto the
-// material's faces and smoothed. The mesh needs only the values near the
-// zero crossing, not a level set kept a distance: the erosion is a shift of
-// the band's values and the smoothing a plain filter of them (LevelSetFilter
-// would renormalise the band after each, which costs more than building it).
-TriSurface meshOfLevelSet(openvdb::FloatGrid& ls, const SurfaceSampling& s,
-                          const SurfaceMeshSettings& settings) {
+TriSurface materialSurfaceMesh(const World& world, int material,
+                               const SurfaceMeshSettings& settings) {
   TriSurface out;
+  const SurfaceSampling s = surfaceSampling(world, settings.voxel_size, material);
+  if (!(s.radius > 0.0)) return out;
+
+  // Level set of the spheres, eroded onto the material's faces, smoothed.
+  // The mesh needs only the values near the zero crossing, not a level set
+  // kept a distance: the erosion is a shift of the band's values and the
+  // smoothing a plain filter of them (LevelSetFilter would renormalise the
+  // band after each, which costs more than building it).
+  openvdb::FloatGrid::Ptr ls = particleLevelSet(world, s, material);
   const float erosion = float(s.erosion);
-  for (auto it = ls.beginValueOn(); it; ++it) it.setValue(*it + erosion);
+  for (auto it = ls->beginValueOn(); it; ++it) it.setValue(*it + erosion);
   if (settings.smoothing > 0) {
-    openvdb::tools::Filter<openvdb::FloatGrid> filter(ls);
+    openvdb::tools::Filter<openvdb::FloatGrid> filter(*ls);
     filter.gaussian(/*width=*/1, settings.smoothing);
   }
 
@@ -30,7 +32,7 @@ TriSurface meshOfLevelSet(openvdb::FloatGrid& ls, const SurfaceSampling& s,
   std::vector<openvdb::Vec3s> points;
   std::vector<openvdb::Vec3I> triangles;
   std::vector<openvdb::Vec4I> quads;
-  openvdb::tools::volumeToMesh(ls, points, triangles, quads, 0.0, settings.adaptivity);
+  openvdb::tools::volumeToMesh(*ls, points, triangles, quads, 0.0, settings.adaptivity);
   out.vertices.reserve(points.size());
   for (const openvdb::Vec3s& p : points) out.vertices.emplace_back(p.x(), p.y(), p.z());
   // OpenVDB winds its polygons clockwise seen from outside (Houdini's
@@ -43,20 +45,6 @@ TriSurface meshOfLevelSet(openvdb::FloatGrid& ls, const SurfaceSampling& s,
     out.triangles.push_back({q[3], q[2], q[0]});
   }
   return out;
-}
-
-}  // namespace
-
-TriSurface materialSurfaceMesh(const World& world, int material,
-                               const SurfaceMeshSettings& settings) {
-  const SurfaceSampling s = surfaceSampling(world, settings.voxel_size, material);
-  if (!(s.radius > 0.0)) return {};
-  return meshOfLevelSet(*particleLevelSet(world, s, material), s, settings);
-}
-
-TriSurface materialSurfaceMesh(const SphereUnionParts& parts, const SurfaceMeshSettings& settings) {
-  if (!(parts.sampling.radius > 0.0)) return {};
-  return meshOfLevelSet(*particleLevelSet(parts), parts.sampling, settings);
 }
 
 }  // namespace triad

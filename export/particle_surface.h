@@ -5,7 +5,6 @@
 // snow. OpenVDB stays out of this header (particle_level_set.h is the one
 // that includes it, for export/'s own files).
 #include <string>
-#include <vector>
 
 #include "sim/solids/collision_particles.h"
 #include "sim/world.h"
@@ -27,23 +26,6 @@ struct SurfaceSampling {
 // Over the particle sets of `material` (an index into the scene's materials),
 // or of every material for -1. `density_voxel_size` bounds the voxel.
 SurfaceSampling surfaceSampling(const World& world, double density_voxel_size, int material = -1);
-// The sampling of the particles of several worlds together (the shares of
-// a split run) from each one's: the largest radius, the smallest voxel and
-// erosion of those with particles.
-SurfaceSampling combinedSampling(const std::vector<SurfaceSampling>& each);
-
-// A split run's surface of one material (or of all, -1): every process
-// rasterises the spheres of its own particles, and process 0 unites the
-// rasters and goes on from there as from its own particles' raster. The
-// union of spheres is a minimum voxel by voxel, so the result is that of
-// one process holding every particle.
-struct SphereUnionParts {
-  SurfaceSampling sampling;        // the whole world's (combinedSampling)
-  std::vector<std::string> parts;  // each process's raster, serialised, in process order
-};
-// This world's part: its particles of `material` rasterised with sampling s.
-std::string sphereUnionPart(const World& world, const SurfaceSampling& s, int material,
-                            double half_width = 3.0);
 
 // How a material's surface mesh is made from its level set: the level set
 // is eroded by SurfaceSampling::erosion, smoothed by `smoothing` passes of
@@ -61,8 +43,5 @@ struct SurfaceMeshSettings {
 // has no particles.
 TriSurface materialSurfaceMesh(const World& world, int material,
                                const SurfaceMeshSettings& settings);
-// The same from a split run's parts, whose sampling was taken with
-// settings.voxel_size.
-TriSurface materialSurfaceMesh(const SphereUnionParts& parts, const SurfaceMeshSettings& settings);
 
 }  // namespace triad

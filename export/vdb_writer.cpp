@@ -214,10 +214,8 @@ void writeVolumesVdb(const std::string& path, const std::vector<VoxelSum>& sums,
 
   // The optional level set of the material's surface.
   if (info.surface) {
-    const SphereUnionParts* parts = info.surface_parts;
-    const SurfaceSampling s = parts ? parts->sampling : surfaceSampling(world, info.voxel_size);
-    FloatGrid::Ptr surface =
-        parts ? particleLevelSet(*parts) : particleLevelSet(world, s, /*material=*/-1);
+    const SurfaceSampling s = surfaceSampling(world, info.voxel_size);
+    FloatGrid::Ptr surface = particleLevelSet(world, s, /*material=*/-1);
     surface->setName("surface");
     addFrameMetadata(*surface, info, "m");
     surface->insertMeta("particle_radius", openvdb::DoubleMetadata(s.radius));

@@ -32,10 +32,6 @@ struct VdbFrameInfo {
   std::string scene_name;
   double voxel_size = 0.0;  // density and vel, m (> 0)
   bool surface = false;     // also write the level set `surface`
-  // Where set, `surface` comes from these rasters of a split run's
-  // processes (taken with sampling at voxel_size), not from the world's
-  // particles.
-  const SphereUnionParts* surface_parts = nullptr;
 };
 
 // A voxel's splatted mass and momentum in fixed point: units of 1/scale.mass
@@ -69,7 +65,7 @@ void addVolumeSums(std::vector<VoxelSum>& sums);
 // `path`. Throws std::runtime_error naming the file.
 void writeVolumesVdb(const std::string& path, const World& world, const VdbFrameInfo& info);
 // The same from sums splatted already (by the processes of a split run);
-// `world` serves the level set `surface` only, where info has no parts.
+// `world` serves the level set `surface` only.
 void writeVolumesVdb(const std::string& path, const std::vector<VoxelSum>& sums,
                      const VolumeScale& scale, const World& world, const VdbFrameInfo& info);
 

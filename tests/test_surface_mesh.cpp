@@ -156,43 +156,5 @@ TEST(SurfaceMesh, NoParticlesNoSurface) {
   EXPECT_TRUE(m.triangles.empty());
 }
 
-// A split run's surface: each share's particles rasterised alone, the
-// rasters united, gives the mesh of one process holding them all, bit for
-// bit. The shares interleave (particle i to share i mod 3), so that every
-// voxel's distance comes from spheres of several shares; the third share
-// holds no sand (sand particle i goes to share i mod 2).
-TEST(SurfaceMesh, SharesRasterisedApartGiveTheWholeWorldsMesh) {
-  const World w = twoMaterials();
-  const int sand = materialIndex(w, "sand");
-  std::vector<World> shares(3, w);
-  for (size_t r = 0; r < shares.size(); ++r)
-    for (ParticleSet& set : shares[r].sets) {
-      std::vector<uint8_t> gone(set.size());
-      for (size_t i = 0; i < set.size(); ++i) gone[i] = i % (set.material == sand ? 2 : 3) != r;
-      set.removeFlagged(gone);
-    }
-  SurfaceMeshSettings settings;
-  settings.voxel_size = 0.02;
-  settings.smoothing = 2;
-  for (const int m : {materialIndex(w, "water"), sand}) {
-    std::vector<SurfaceSampling> each;
-    for (const World& share : shares)
-      each.push_back(surfaceSampling(share, settings.voxel_size, m));
-    SphereUnionParts parts;
-    parts.sampling = combinedSampling(each);
-    const SurfaceSampling whole = surfaceSampling(w, settings.voxel_size, m);
-    EXPECT_EQ(parts.sampling.radius, whole.radius) << m;
-    EXPECT_EQ(parts.sampling.voxel_size, whole.voxel_size) << m;
-    EXPECT_EQ(parts.sampling.erosion, whole.erosion) << m;
-    for (const World& share : shares)
-      parts.parts.push_back(sphereUnionPart(share, parts.sampling, m));
-    const TriSurface united = materialSurfaceMesh(parts, settings);
-    const TriSurface one = materialSurfaceMesh(w, m, settings);
-    ASSERT_GT(one.triangles.size(), 100u) << m;
-    EXPECT_EQ(united.vertices, one.vertices) << m;
-    EXPECT_EQ(united.triangles, one.triangles) << m;
-  }
-}
-
 }  // namespace
 }  // namespace triad

@@ -291,20 +291,6 @@ TEST_F(VdbExport, VolumesDoNotDependOnTheParticlesOrderOrSplit) {
   EXPECT_EQ(0, std::memcmp(sums.data(), whole.data(), sums.size() * sizeof(VoxelSum)));
   writeVolumesVdb((dir / "parts.vdb").string(), sums, scale, w, info);
   EXPECT_TRUE(slurp(dir / "in_order.vdb") == slurp(dir / "parts.vdb"));
-  // With the level set, from the parts' rasters united (a split run's
-  // process 0 holds no other process's particles: the world it passes has
-  // none).
-  VdbFrameInfo surface = vdbInfo(0.02, true);
-  writeVolumesVdb((dir / "whole_surface.vdb").string(), w, surface);
-  SphereUnionParts unions;
-  unions.sampling = combinedSampling(
-      {surfaceSampling(part[0], surface.voxel_size), surfaceSampling(part[1], surface.voxel_size)});
-  for (const World& p : part) unions.parts.push_back(sphereUnionPart(p, unions.sampling, -1));
-  World none = w;
-  for (ParticleSet& s : none.sets) s = s.withoutParticles();
-  surface.surface_parts = &unions;
-  writeVolumesVdb((dir / "parts_surface.vdb").string(), sums, scale, none, surface);
-  EXPECT_TRUE(slurp(dir / "whole_surface.vdb") == slurp(dir / "parts_surface.vdb"));
 }
 
 TEST_F(VdbExport, SameParticlesSameBytesAndConfigurableVoxelSize) {
