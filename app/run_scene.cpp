@@ -397,14 +397,12 @@ int runScene(const RunOptions& options_in) {
     // checkpoint, under temporary names that process 0 renames into place
     // with the frame's other files.
     SharedWrites shared;
+    RunSplit::SharedParticles written;
     try {
-      if (shared_files && (scene.output.ply || scene.output.vtk)) {
-        const RunSplit::SharedParticles written = split.writeParticlesShared(
-            scene.output.ply ? particlesPath(out_dir, frame) : "",
-            scene.output.vtk ? vtkParticlesPath(out_dir, frame) : "", world);
-        shared.particles = written.ply;
-        shared.vtk_particles = written.vtp;
-      }
+      if (shared_files && (scene.output.ply || scene.output.vtk))
+        split.writeParticlesShared(scene.output.ply ? particlesPath(out_dir, frame) : "",
+                                   scene.output.vtk ? vtkParticlesPath(out_dir, frame) : "", world,
+                                   written);
       if (shared_files && scene.output.checkpoints)
         shared.checkpoint =
             split.writeCheckpointShared(checkpointPath(out_dir, frame), frame, checkpoint_key,
@@ -412,9 +410,11 @@ int runScene(const RunOptions& options_in) {
     } catch (const std::exception&) {
       // The frame's files go into place together or not at all: process 0
       // removes those its processes wrote before the one that failed.
-      if (split.root()) removeTemporaries({shared.particles, shared.vtk_particles});
+      if (split.root()) removeTemporaries({written.ply, written.vtp});
       throw;
     }
+    shared.particles = written.ply;
+    shared.vtk_particles = written.vtp;
     if (shared_volumes) {
       auto volumes = std::make_shared<SharedWrites::Volumes>();
       volumes->sums = split.splatVolumesShared(world, vdb_voxel, volumes->scale);

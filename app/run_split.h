@@ -90,13 +90,15 @@ class RunSplit {
                                     const std::string& scene_hash, const World& world,
                                     const SolverState& state, const StepRecord& record);
   // Collective, the same for the particles' PLY (at `ply`) and their VTK
-  // file (at `vtp`), each left out where its path is empty; the
-  // temporaries' names, empty for a file not written.
+  // file (at `vtp`), each left out where its path is empty. Each
+  // temporary's name goes into `written` as it is made (empty for a file
+  // not written), so that the caller can remove those already written when
+  // a later one fails.
   struct SharedParticles {
     std::string ply, vtp;
   };
-  SharedParticles writeParticlesShared(const std::string& ply, const std::string& vtp,
-                                       const World& world);
+  void writeParticlesShared(const std::string& ply, const std::string& vtp, const World& world,
+                            SharedParticles& written);
   // Collective: the volumes' sums (export/vdb_writer.h) of every process's
   // particles on voxels of size h, added up on process 0 (empty on the
   // others), and the scale they share.

@@ -16,7 +16,6 @@
 #include <stdexcept>
 
 #include "app/run_split.h"
-#include "export/atomic_file.h"
 #include "export/checkpoint.h"
 #include "export/ply_writer.h"
 #include "export/vdb_writer.h"
@@ -304,12 +303,10 @@ std::string RunSplit::writeCheckpointShared(const std::string& path, int frame,
   return tmp;
 }
 
-RunSplit::SharedParticles RunSplit::writeParticlesShared(const std::string& ply,
-                                                         const std::string& vtp,
-                                                         const World& world) {
+void RunSplit::writeParticlesShared(const std::string& ply, const std::string& vtp,
+                                    const World& world, SharedParticles& written) {
   const IdRun ids = particlesByIdRun(world, size_t(size_), root());
   const std::vector<PlyParticle>& run = ids.run;
-  SharedParticles written;
   if (!ply.empty()) {
     const std::string header = particlesPlyHeader(size_t(ids.total), world.time);
     const uint64_t bytes = header.size() + ids.total * sizeof(PlyParticle);
@@ -320,34 +317,27 @@ RunSplit::SharedParticles RunSplit::writeParticlesShared(const std::string& ply,
                  run.size() * sizeof(PlyParticle));
     });
   }
-  if (vtp.empty()) return written;
-  try {
-    // Array by array, each process its run's entries, a chunk at a time.
-    const ParticlesVtpLayout layout = particlesVtpLayout(size_t(ids.total));
-    written.vtp = sharedTemporary(*domain_, root(), vtp);
-    writeTogether(written.vtp, vtp, layout.bytes, root(), [&](SharedFile& file) {
-      if (root())
-        for (const auto& [offset, bytes] : layout.fixed)
-          file.write(offset, bytes.data(), bytes.size());
-      std::vector<unsigned char> chunk;
-      for (int a = 0; a < ParticlesVtpLayout::kArrays; ++a) {
-        const uint64_t entry = layout.entry[a];
-        const size_t per_chunk = std::max<size_t>(1, kChunkBytes / entry);
-        for (size_t k = 0; k < run.size(); k += per_chunk) {
-          const size_t count = std::min(per_chunk, run.size() - k);
-          chunk.resize(count * entry);
-          packParticlesVtp(ParticlesVtpLayout::Array(a), run.data() + k, count, ids.before + k,
-                           chunk.data());
-          file.write(layout.values[a] + (ids.before + k) * entry, chunk.data(), chunk.size());
-        }
+  if (vtp.empty()) return;
+  // Array by array, each process its run's entries, a chunk at a time.
+  const ParticlesVtpLayout layout = particlesVtpLayout(size_t(ids.total));
+  written.vtp = sharedTemporary(*domain_, root(), vtp);
+  writeTogether(written.vtp, vtp, layout.bytes, root(), [&](SharedFile& file) {
+    if (root())
+      for (const auto& [offset, bytes] : layout.fixed)
+        file.write(offset, bytes.data(), bytes.size());
+    std::vector<unsigned char> chunk;
+    for (int a = 0; a < ParticlesVtpLayout::kArrays; ++a) {
+      const uint64_t entry = layout.entry[a];
+      const size_t per_chunk = std::max<size_t>(1, kChunkBytes / entry);
+      for (size_t k = 0; k < run.size(); k += per_chunk) {
+        const size_t count = std::min(per_chunk, run.size() - k);
+        chunk.resize(count * entry);
+        packParticlesVtp(ParticlesVtpLayout::Array(a), run.data() + k, count, ids.before + k,
+                         chunk.data());
+        file.write(layout.values[a] + (ids.before + k) * entry, chunk.data(), chunk.size());
       }
-    });
-  } catch (const std::exception&) {
-    // Neither goes into place: the PLY its processes wrote goes too.
-    if (root()) removeTemporaries({written.ply});
-    throw;
-  }
-  return written;
+    }
+  });
 }
 
 std::vector<VoxelSum> RunSplit::splatVolumesShared(const World& world, double h,
@@ -391,8 +381,8 @@ std::string RunSplit::writeCheckpointShared(const std::string&, int, const std::
                                             const World&, const SolverState&, const StepRecord&) {
   throw std::logic_error("writeCheckpointShared without MPI");
 }
-RunSplit::SharedParticles RunSplit::writeParticlesShared(const std::string&, const std::string&,
-                                                         const World&) {
+void RunSplit::writeParticlesShared(const std::string&, const std::string&, const World&,
+                                    SharedParticles&) {
   throw std::logic_error("writeParticlesShared without MPI");
 }
 std::vector<VoxelSum> RunSplit::splatVolumesShared(const World&, double, VolumeScale&) {

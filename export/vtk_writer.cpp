@@ -1,5 +1,6 @@
 #include "export/vtk_writer.h"
 
+#include <algorithm>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
@@ -31,15 +32,6 @@ Array makeArray(const std::string& type, const std::string& name, int components
   a.xml = arrayXml(type, name, components);
   a.bytes.assign(reinterpret_cast<const char*>(values.data()), values.size() * sizeof(T));
   return a;
-}
-
-// The 64-bit cell arrays of n cells of `per` points each, numbered in order.
-void sequentialCells(size_t n, int per, std::vector<int64_t>& connectivity,
-                     std::vector<int64_t>& offsets) {
-  connectivity.resize(n * size_t(per));
-  offsets.resize(n);
-  for (size_t i = 0; i < connectivity.size(); ++i) connectivity[i] = int64_t(i);
-  for (size_t i = 0; i < n; ++i) offsets[i] = int64_t((i + 1) * size_t(per));
 }
 
 // An array of the appended block as the file's XML describes it: its element
@@ -141,32 +133,33 @@ std::string xmlEscaped(const std::string& s) {
 }  // namespace
 
 void writeParticlesVtp(const std::string& path, const World& world) {
-  const std::vector<ParticleRef> order = particlesById(world);
-  const size_t n = order.size();
-  std::vector<float> x(3 * n), v(3 * n), J(n);
-  std::vector<uint32_t> id(n);
-  std::vector<int32_t> object(n);
-  for (size_t k = 0; k < n; ++k) {
-    const ParticleSet& set = world.sets[order[k].set];
-    const size_t i = order[k].index;
-    for (int d = 0; d < 3; ++d) {
-      x[3 * k + size_t(d)] = set.x[i][d];
-      v[3 * k + size_t(d)] = set.v[i][d];
+  // The particles' records in id order, then each array packed from them a
+  // chunk at a time, as every process of a split run packs its run of ids.
+  std::vector<PlyParticle> records;
+  records.reserve(world.particleCount());
+  for (const ParticleRef& r : particlesById(world))
+    records.push_back(plyParticle(world.sets[r.set], r.index));
+  const ParticlesVtpLayout layout = particlesVtpLayout(records.size());
+  writeFileAtomically(path, [&](std::ostream& out) {
+    // The fixed pieces that lie before `at`, in file order.
+    size_t piece = 0;
+    auto fixedBefore = [&](uint64_t at) {
+      for (; piece < layout.fixed.size() && layout.fixed[piece].first < at; ++piece)
+        out << layout.fixed[piece].second;
+    };
+    std::vector<unsigned char> chunk;
+    for (int a = 0; a < ParticlesVtpLayout::kArrays; ++a) {
+      fixedBefore(layout.values[a]);
+      const size_t per_chunk = std::max<size_t>(1, (size_t(1) << 20) / layout.entry[a]);
+      for (size_t k = 0; k < records.size(); k += per_chunk) {
+        const size_t count = std::min(per_chunk, records.size() - k);
+        chunk.resize(count * layout.entry[a]);
+        packParticlesVtp(ParticlesVtpLayout::Array(a), records.data() + k, count, k, chunk.data());
+        out.write(reinterpret_cast<const char*>(chunk.data()), std::streamsize(chunk.size()));
+      }
     }
-    J[k] = set.volumeRatio(i);
-    id[k] = set.id[i];
-    object[k] = int32_t(set.object[i]);
-  }
-  std::vector<int64_t> connectivity, offsets;
-  sequentialCells(n, 1, connectivity, offsets);
-  auto array = [](ParticlesVtpLayout::Array a, const auto& values) {
-    const Kind& k = kParticleArrays[a];
-    return makeArray(k.type, k.name, k.components, values);
-  };
-  using L = ParticlesVtpLayout;
-  writePolyData(path, n, array(L::Points, x),
-                {array(L::Velocity, v), array(L::Id, id), array(L::Object, object), array(L::J, J)},
-                "Verts", n, array(L::Connectivity, connectivity), array(L::Offsets, offsets));
+    fixedBefore(layout.bytes);
+  });
 }
 
 ParticlesVtpLayout particlesVtpLayout(size_t n) {
