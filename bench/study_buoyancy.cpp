@@ -13,7 +13,9 @@
 //   --start film  a block of water (STUDY_FILM_H m deep, default 0.04) on
 //                 the slab's top (fixed: 0.12 m up; else on the floor); prints
 //                 how much of it is still on the slab and how high it stands
-// STUDY_BULK sets the water's bulk modulus (default 2e5 Pa); STUDY_FLOW=1
+// STUDY_BULK sets the water's bulk modulus (default 2e5 Pa); STUDY_FRICTION
+// the slab's friction; STUDY_SHIFT moves the slab up by that many cells (the
+// water stays where it was put for the unshifted slab); STUDY_FLOW=1
 // prints the water's flux down past the slab against what an
 // incompressible fluid must carry, and the water's speed under and over it.
 // STUDY_SPHERE=1 puts a sphere of diameter CELLS * 0.02 m in place of the
@@ -121,12 +123,14 @@ int main(int argc, char** argv) {
   for (size_t k = 0; k < water.size(); ++k)
     j["objects"].push_back({{"name", "w" + std::to_string(k)}, {"kind", "mpm"},
                             {"material", "water"}, {"shape", water[k]}});
+  if (getenv("STUDY_SHIFT")) y0 += std::stod(getenv("STUDY_SHIFT")) * s.dx;
   json slab = {{"name", "slab"}, {"kind", s.kind}, {"shape", box({sx0, y0, kSz0}, {sx1, y0 + t, kSz1})}};
   if (getenv("STUDY_SPHERE"))
     slab["shape"] = {{"sphere", {{"center", {0.5 * kX, y0 + 0.5 * t, 0.5 * kZ}}, {"radius", 0.5 * t}}}};
   if (s.kind == "rigid") slab["density"] = rho;
   else slab["material"] = "solid";
   if (s.fixed) slab["fixed"] = true;
+  if (getenv("STUDY_FRICTION")) slab["friction"] = std::stod(getenv("STUDY_FRICTION"));
   j["objects"].push_back(slab);
 
   triad::World w;
