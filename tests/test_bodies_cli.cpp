@@ -431,11 +431,13 @@ TEST(BodiesCache, ForcesTableGivesTheBuoyancyOfAFixedBoxUnderWater) {
               mean[1], buoyancy, mean[0], mean[2], mean[3], mean[4], mean[5]);
   // Measured 9.33 N, 4.9% short at this dx (four cells across the box; 9.23 N
   // with the summed sample normals). The box's faces lie on node planes, one
-  // of its better places: moved by 1/8 to 3/4 of a cell it feels 10.42 to
-  // 7.17 N, and its edge samples' normals, which rounding picks, are worth
-  // 1.2 N here (bench/RESULTS.md, "Where a body lies in its cell"); a
-  // body of water's weight would be 10% (the box is sampled at dx/2, so its
-  // volume is exact). Without the fixed solids' node impulses: 0.
+  // of its better places: moved up by half a cell it feels 8.51 N, by 3/8
+  // (faces between the particle lattice's planes) 5.60 N, and its edge
+  // samples' normals, which rounding picks, are worth 1.2 N here
+  // (bench/RESULTS.md, "Where a body lies in its cell" and "The fixed box's
+  // force taken apart"; bench/study_fixed_box.py); a body of water's weight
+  // would be 10% (the box is sampled at dx/2, so its volume is exact).
+  // Without the fixed solids' node impulses: 0.
   EXPECT_NEAR(mean[1], buoyancy, 0.08 * buoyancy);
   EXPECT_NEAR(mean[0], 0.0, 0.02 * buoyancy);
   EXPECT_NEAR(mean[2], 0.0, 0.02 * buoyancy);
