@@ -178,6 +178,7 @@ SolverDesc parseSolver(const ParamDict& root) {
     out.contact_normal = s->getEnum("contact_normal", out.contact_normal, kContactNormals);
     out.rigid_collision = s->getEnum("rigid_collision", out.rigid_collision, kRigidCollisions);
     out.contact_gap = s->getBool("contact_gap", out.contact_gap);
+    out.contact_gap_fixed = s->getBool("contact_gap_fixed", out.contact_gap_fixed);
     out.front_fields = s->getBool("front_fields", out.front_fields);
     // Each particle gathers its own field's velocity and affine part: APIC's.
     if (out.front_fields && out.transfer != TransferScheme::Apic)
@@ -209,7 +210,8 @@ SolverDesc parseSolver(const ParamDict& root) {
   }
   s->checkUnknownKeys({}, [&](const std::string& key) -> std::string {
     if (key == "contact_reach" || key == "contact_normal" || key == "rigid_collision" ||
-        key == "contact_gap" || key == "front_fields" || key == "front_angle_deg")
+        key == "contact_gap" || key == "contact_gap_fixed" || key == "front_fields" ||
+        key == "front_angle_deg")
       return std::string("it applies only when coupling is \"three_grid\", and coupling is ") +
              inQuotes(nameOf(kCouplings, out.coupling));
     if (key != "flip_ratio") return {};

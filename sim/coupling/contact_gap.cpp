@@ -5,9 +5,11 @@
 // would rest a cell off the surface. Each node's collision therefore lets
 // the material approach by its gap in the step (a speculative contact), the
 // gap being that of the closest particle whose stencil reaches the node.
-// Fixed solids take it too: without it, sand or water falling onto a fixed
-// floor came to rest 0.65-1.13 dx above its face (where the face lay in its
-// cell decided how far), against half a particle spacing with it.
+// Nodes that moving or driven solids reach take a gap, and with
+// solver.contact_gap_fixed those of fixed solids too: without it, sand or
+// water falling onto a fixed floor comes to rest 0.65-1.08 dx above its
+// face (where the face lies in its cell decides how far), against half a
+// particle spacing with it.
 // The same pass sums, for the two fields of sim/coupling/front_fields.cpp,
 // each node's material in front of its face and all of it.
 #include <omp.h>
@@ -41,12 +43,13 @@ float leastBelow(int i, Cell cell) {
 
 void GridCoupling::measureNearSolids(const std::vector<ParticleSet>& sets, const GridLayout& layout,
                                      const TransferParams& p, bool gaps, bool fronts) {
-  // Every solid's nodes take a gap; only those of solids that move split
-  // into two fields. Split over processes, each takes part in the exchange
-  // below anyway.
+  // Nodes of solids that take a gap, and those of solids that move (two
+  // fields): nothing to measure without them (a fixed floor under a whole
+  // scene costs nothing here unless it takes the gap). Split over
+  // processes, each takes part in the exchange below anyway.
   const bool moving =
       std::find(slot_moving_.begin(), slot_moving_.end(), uint8_t(1)) != slot_moving_.end();
-  const bool solids = !slot_moving_.empty();
+  const bool solids = std::find(slot_gap_.begin(), slot_gap_.end(), uint8_t(1)) != slot_gap_.end();
   // Two fields stay within one process: a split run refuses them (their
   // sums would have to cross the cut in colour order, as P2G's do).
   fronts = fronts && !domain_;
@@ -76,7 +79,7 @@ void GridCoupling::gapsOfBlock(uint32_t pb, const std::vector<ParticleSet>& sets
   bool solid = false;
   for (int d = 0; d < 8; ++d) {
     slot[size_t(d)] = block_slot_[layout.neighbours[pb][size_t(d)]];
-    solid |= slot[size_t(d)] >= 0;
+    solid |= slot[size_t(d)] >= 0 && slot_gap_[size_t(slot[size_t(d)])];
   }
   if (!solid) return;
   // The planes (distance and its normal) of the 6^3 nodes the block's
@@ -193,7 +196,7 @@ void GridCoupling::gapsOfBlock(uint32_t pb, const std::vector<ParticleSet>& sets
     for (int y = 0; y < kReach; ++y)
       for (int z = 0; z < kReach; ++z) {
         const int32_t sl = slot[size_t(neighbourOf(Vec3i::Zero(), x, y, z))];
-        if (sl < 0 || least[x][y][z] >= kFar) continue;
+        if (sl < 0 || !slot_gap_[size_t(sl)] || least[x][y][z] >= kFar) continue;
         float& g = gap[uint32_t(sl) * kBlockNodes + localNode(x, y, z)];
         g = std::min(g, least[x][y][z]);
       }
@@ -210,8 +213,9 @@ void GridCoupling::scanNearSolids(const std::vector<ParticleSet>& sets, const Gr
     for (int d = 0; d < 8; ++d) {
       const uint32_t gb = layout.neighbours[pb][size_t(d)];
       slot[size_t(d)] = block_slot_[gb];
-      // Every solid's nodes take a gap; only a moving solid's split.
-      any |= slot[size_t(d)] >= 0;
+      // Nodes that take a gap, or (a moving solid's) split.
+      any |= slot[size_t(d)] >= 0 &&
+             (slot_moving_[size_t(slot[size_t(d)])] || slot_gap_[size_t(slot[size_t(d)])]);
     }
     if (!any) return;
     for (size_t s = 0; s < sets.size(); ++s) {
@@ -252,7 +256,8 @@ void GridCoupling::scanNearSolids(const std::vector<ParticleSet>& sets, const Gr
         if (gaps && phi > kNoDistance) {
           const float clearance = std::max(0.0f, phi - radius);
           for (int m = 0; m < 27; ++m)
-            if (node[m] >= 0) gap[node[m]] = std::min(gap[node[m]], clearance);
+            if (node[m] >= 0 && slot_gap_[size_t(node[m]) / kBlockNodes])
+              gap[node[m]] = std::min(gap[node[m]], clearance);
         }
         // Sleeping material keeps its sums at rest and gathers nothing:
         // it stays one field.

@@ -181,7 +181,8 @@ class GridCoupling {
   SolverDesc solver_;
   std::vector<SolidNode> nodes_;       // per slot * 64 + node
   std::vector<Vec3f> delta_;           // per slot node: velocity change felt by the solids
-  std::vector<uint8_t> slot_moving_;   // per slot: a moving or driven solid reaches it (fronts)
+  std::vector<uint8_t> slot_moving_;   // per slot: a moving or driven solid reaches it
+  std::vector<uint8_t> slot_gap_;      // per slot: its nodes take the contact gap
   std::vector<float> gap_;            // per slot node: the material's clearance (measureNearSolids)
   std::vector<std::vector<float>> gap_threads_;  // each thread's gaps, without fronts
   std::vector<Vec3f> pre_;             // per slot node: MPM velocity before the update
