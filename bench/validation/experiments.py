@@ -9,7 +9,7 @@ sweep):
   /usr/bin/python3 bench/validation/experiments.py [--quick] [--threads N]
       [--only collapse,axisymmetric,dam_break] [--results DIR]
       [--aspects 3,6] [--dx-factors 1,0.5] [--grain-diameter D]
-      [--channel-width W [--wall-friction MU]]
+      [--channel-width W [--wall-friction MU]] [--solver JSON]
 
 --quick           the base dx only (no refinement), for a smoke test
 --aspects         the planar aspect ratios to run (default 0.5,1,2,3,6)
@@ -24,6 +24,8 @@ sweep):
                   wide channel)
 --wall-friction   the side walls' Coulomb coefficient against the sand
                   (default 0.4, sand on acrylic or glass)
+--solver          solver keys (a JSON object) added to every collapse's
+                  scene, e.g. '{"contact_gap_fixed": true}'
 
 Writes, under the results directory: collapse_aspect.csv and .png (run-out
 and final height against a, per geometry and dx, with the fitted laws),
@@ -32,6 +34,7 @@ experiments), and experiments.md (the tables bench/RESULTS.md quotes).
 """
 import argparse
 import csv
+import json
 import math
 import os
 import sys
@@ -45,6 +48,7 @@ import validate as V  # noqa: E402
 PLANAR_A = [0.5, 1, 2, 3, 6]
 AXISYMMETRIC_A = [0.5, 1, 2, 3]
 COLLAPSE_DX = [1, 0.5]  # factors of the scenes' dx
+SOLVER_EXTRA = {}  # --solver: keys added to every collapse's scene
 DAM_BREAK_DX = [2, 1, 0.5, 0.25]
 
 
@@ -143,6 +147,7 @@ def run_collapses(geometry, aspects, factors, work_root, threads, channel=None, 
                 scene, case = planar_scene(a, f, channel, grain), "granular_collapse"
             else:
                 scene, case = axisymmetric_scene(a, f, work), "granular_axisymmetric"
+            scene["solver"].update(SOLVER_EXTRA)
             r = V.run_one(case, scene, work, threads)
             # "H_inf/L0 1.337 vs 1.552 (err ..." -> the two heights.
             words = r["note"].split()
@@ -303,7 +308,9 @@ def main():
     ap.add_argument("--grain-diameter", type=float, default=0.0)
     ap.add_argument("--channel-width", type=float, default=0.0)
     ap.add_argument("--wall-friction", type=float, default=0.4)
+    ap.add_argument("--solver", default="{}")
     args = ap.parse_args()
+    SOLVER_EXTRA.update(json.loads(args.solver))
     if args.channel_width < 0 or args.wall_friction < 0 or args.grain_diameter < 0:
         sys.exit("--channel-width, --wall-friction and --grain-diameter are not negative")
     V.TRIAD = os.path.abspath(args.triad)
