@@ -49,7 +49,7 @@ void GridCoupling::measureNearSolids(const std::vector<ParticleSet>& sets, const
   // processes, each takes part in the exchange below anyway.
   const bool moving =
       std::find(slot_moving_.begin(), slot_moving_.end(), uint8_t(1)) != slot_moving_.end();
-  const bool solids = std::find(slot_gap_.begin(), slot_gap_.end(), uint8_t(1)) != slot_gap_.end();
+  const bool solids = moving || (solver_.contact_gap_fixed && !slot_moving_.empty());
   // Two fields stay within one process: a split run refuses them (their
   // sums would have to cross the cut in colour order, as P2G's do).
   fronts = fronts && !domain_;
@@ -79,7 +79,7 @@ void GridCoupling::gapsOfBlock(uint32_t pb, const std::vector<ParticleSet>& sets
   bool solid = false;
   for (int d = 0; d < 8; ++d) {
     slot[size_t(d)] = block_slot_[layout.neighbours[pb][size_t(d)]];
-    solid |= slot[size_t(d)] >= 0 && slot_gap_[size_t(slot[size_t(d)])];
+    solid |= slot[size_t(d)] >= 0 && takesGap(size_t(slot[size_t(d)]));
   }
   if (!solid) return;
   // The planes (distance and its normal) of the 6^3 nodes the block's
@@ -196,7 +196,7 @@ void GridCoupling::gapsOfBlock(uint32_t pb, const std::vector<ParticleSet>& sets
     for (int y = 0; y < kReach; ++y)
       for (int z = 0; z < kReach; ++z) {
         const int32_t sl = slot[size_t(neighbourOf(Vec3i::Zero(), x, y, z))];
-        if (sl < 0 || !slot_gap_[size_t(sl)] || least[x][y][z] >= kFar) continue;
+        if (sl < 0 || !takesGap(size_t(sl)) || least[x][y][z] >= kFar) continue;
         float& g = gap[uint32_t(sl) * kBlockNodes + localNode(x, y, z)];
         g = std::min(g, least[x][y][z]);
       }
@@ -214,8 +214,7 @@ void GridCoupling::scanNearSolids(const std::vector<ParticleSet>& sets, const Gr
       const uint32_t gb = layout.neighbours[pb][size_t(d)];
       slot[size_t(d)] = block_slot_[gb];
       // Nodes that take a gap, or (a moving solid's) split.
-      any |= slot[size_t(d)] >= 0 &&
-             (slot_moving_[size_t(slot[size_t(d)])] || slot_gap_[size_t(slot[size_t(d)])]);
+      any |= slot[size_t(d)] >= 0 && takesGap(size_t(slot[size_t(d)]));
     }
     if (!any) return;
     for (size_t s = 0; s < sets.size(); ++s) {
@@ -256,7 +255,7 @@ void GridCoupling::scanNearSolids(const std::vector<ParticleSet>& sets, const Gr
         if (gaps && phi > kNoDistance) {
           const float clearance = std::max(0.0f, phi - radius);
           for (int m = 0; m < 27; ++m)
-            if (node[m] >= 0 && slot_gap_[size_t(node[m]) / kBlockNodes])
+            if (node[m] >= 0 && takesGap(size_t(node[m]) / kBlockNodes))
               gap[node[m]] = std::min(gap[node[m]], clearance);
         }
         // Sleeping material keeps its sums at rest and gathers nothing:

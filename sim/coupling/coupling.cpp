@@ -217,7 +217,6 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
   blocks_.clear();
   block_points_.assign(1, 0);
   slot_moving_.clear();
-  slot_gap_.clear();
   slot_fixed_.clear();
   block_slot_.assign(layout.gridBlocks(), kNoSlot);
   slot_block_.clear();
@@ -238,7 +237,6 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
         block_slot_[gb] = int32_t(slot_block_.size());
         slot_block_.push_back(uint32_t(gb));
         slot_moving_.push_back(1);  // these runs are of solids that move
-        slot_gap_.push_back(1);
         slot_fixed_.push_back(-1);
       }
       blk.slot[d] = block_slot_[gb];
@@ -273,7 +271,6 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
         block_slot_[gb] = int32_t(slot_block_.size());
         slot_block_.push_back(uint32_t(gb));
         slot_moving_.push_back(0);  // fixed solids alone
-        slot_gap_.push_back(solver_.contact_gap_fixed ? 1 : 0);
         slot_fixed_.push_back(-1);
       }
       slot_fixed_[size_t(block_slot_[gb])] = int32_t(f);

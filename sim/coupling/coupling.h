@@ -182,7 +182,9 @@ class GridCoupling {
   std::vector<SolidNode> nodes_;       // per slot * 64 + node
   std::vector<Vec3f> delta_;           // per slot node: velocity change felt by the solids
   std::vector<uint8_t> slot_moving_;   // per slot: a moving or driven solid reaches it
-  std::vector<uint8_t> slot_gap_;      // per slot: its nodes take the contact gap
+  // Whether slot s's nodes take the contact gap: a moving solid's do, a
+  // fixed solid's with solver.contact_gap_fixed.
+  bool takesGap(size_t s) const { return slot_moving_[s] || solver_.contact_gap_fixed; }
   std::vector<float> gap_;            // per slot node: the material's clearance (measureNearSolids)
   std::vector<std::vector<float>> gap_threads_;  // each thread's gaps, without fronts
   std::vector<Vec3f> pre_;             // per slot node: MPM velocity before the update
