@@ -85,10 +85,9 @@ struct SolverDesc {
   // Three grids: material a gap away from a rigid solid may close it in a
   // step before the collision stops it (a speculative contact).
   bool contact_gap = true;
-  // Fixed solids take the gap too (material falling onto them rests half a
-  // spacing off their faces, not up to a cell); off until the granular
-  // collapses on fixed floors are measured again with it.
-  bool contact_gap_fixed = false;
+  // Fixed solids take the gap too: material falling onto them rests half a
+  // spacing off their faces, not up to a cell above them.
+  bool contact_gap_fixed = true;
   int coupling_iterations = 30;  // most Jacobi passes of the grid collision with rigid bodies
   int contact_iterations = 20;  // sequential-impulse passes for rigid contacts
   SleepDesc sleep;

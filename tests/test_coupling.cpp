@@ -479,13 +479,13 @@ TEST_P(WaterFilm, RunsOffASlab) {
 INSTANTIATE_TEST_SUITE_P(Reaches, WaterFilm, ::testing::Values(0.5, 0.75));
 
 // Sand and water dropped a cell onto a fixed rigid floor come to rest on
-// it with solver.contact_gap_fixed: their lowest particles half a particle
-// spacing (dx/4) above its face, as on the domain's floor, wherever the
-// face lies in its cell. Without it (the default), the nodes up to a cell
-// above the face
-// stopped the falling material where they first held it: it rested 1.07 /
-// 0.80 / 0.70 dx above the face (sand; water 1.08 / 0.76 / 0.66) at the
-// offsets 0, 0.4 and 0.5 of a cell, hovering over the floor.
+// it: their lowest particles half a particle spacing (dx/4) above its face,
+// as on the domain's floor, wherever the face lies in its cell. With
+// solver.contact_gap_fixed false (the default until fixed solids took the
+// gap), the nodes up to a cell above the face stopped the falling material
+// where they first held it: it rested 1.07 / 0.80 / 0.70 dx above the face
+// (sand; water 1.08 / 0.76 / 0.66) at the offsets 0, 0.4 and 0.5 of a
+// cell, hovering over the floor.
 class RestOnFixedFloor : public ::testing::TestWithParam<std::tuple<std::string, double>> {};
 
 TEST_P(RestOnFixedFloor, HalfASpacingAboveTheFace) {
@@ -494,7 +494,6 @@ TEST_P(RestOnFixedFloor, HalfASpacingAboveTheFace) {
   const std::string name = "fixed_floor_" + material + "_" + std::to_string(int(10 * offset));
   json j = test::baseScene(name, {0.4, 0.4, 0.4}, dx);
   j["materials"]["m"] = material == "sand" ? sand() : water();
-  j["solver"]["contact_gap_fixed"] = true;
   j["objects"].push_back(fixedRigid("floor", box({0, 0.02, 0}, {0.4, top, 0.4})));
   j["objects"].push_back(mpm("block", "m", box({0.1, top + 0.03, 0.1}, {0.3, top + 0.13, 0.3})));
   World w = test::loadWorld(test::tempDir(name), j);

@@ -400,7 +400,13 @@ SUITE = {"free_fall": "preview", "incline": "preview", "bar": "preview",
 # by its pressure alternating between particle rows (bench/RESULTS.md, "The
 # stall"). With rigid_collision "jacobi" it sank on past Archimedes' draft
 # (0.064 m at 6 s, 18% in the window).
-KNOWN_MISS = {"archimedes": (0.3073, 0.02)}
+# The axisymmetric collapse at preview (10 cells across the column's
+# radius) runs out 35% short once the sand rests on the fixed floor rather
+# than a cell above it (solver.contact_gap_fixed, the default): the 19%
+# short it read before leaned on that hover. At dx 0.005 it reads -3%; the
+# run-out grows with refinement with and without the gap (bench/RESULTS.md,
+# "The contact gap for fixed solids").
+KNOWN_MISS = {"archimedes": (0.3073, 0.02), "granular_axisymmetric": (0.3522, 0.02)}
 
 
 def variants(case, quick):
