@@ -13,6 +13,8 @@
 #include <utility>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "app/frame_output.h"
 #include "app/interrupt.h"
 #include "app/output_thread.h"
@@ -197,6 +199,7 @@ int runScene(const RunOptions& options_in) {
   rec.particles_per_cell = scene.solver.particles_per_cell;
   rec.cfl = scene.solver.cfl;
   rec.transfer = transferName(scene.solver.transfer);
+  rec.solver = solverSettings(scene.solver).dump();
   // Checkpoints are tied to the scene file and to the quality preset: a
   // checkpoint of another resolution cannot continue this run.
   const std::string checkpoint_key = checkpointKey(rec.scene_hash, options.quality);

@@ -50,6 +50,7 @@ void writeRunRecord(const std::string& path, const RunRecord& rec) {
                   {"particles_per_cell", rec.particles_per_cell},
                   {"cfl", rec.cfl},
                   {"transfer", rec.transfer}};
+  if (!rec.solver.empty()) j["solver"] = nlohmann::ordered_json::parse(rec.solver);
   nlohmann::ordered_json per_object = nlohmann::ordered_json::object();
   for (const auto& [name, n] : rec.object_particles) per_object[name] = n;
   j["particles"] = {{"total", rec.particles}, {"per_object", per_object}};

@@ -56,6 +56,9 @@ struct RunRecord {
   int particles_per_cell = 0;
   double cfl = 0.0;
   std::string transfer;
+  // Every solver setting the run used, defaults included, as a JSON object
+  // in the scene's `solver` keys (empty: not recorded).
+  std::string solver;
   bool resume = false;           // run with --resume
   int resumed_from_frame = -1;    // the checkpoint's frame; -1: started over
   bool finished = false;

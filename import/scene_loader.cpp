@@ -619,6 +619,38 @@ RenderDesc parseRender(const ParamDict& root) {
 
 }  // namespace
 
+nlohmann::ordered_json solverSettings(const SolverDesc& s) {
+  // In parseSolver's order, and only the keys it accepts with this
+  // coupling and transfer.
+  nlohmann::ordered_json j;
+  j["cfl"] = s.cfl;
+  j["max_dt"] = s.max_dt;
+  j["particles_per_cell"] = s.particles_per_cell;
+  j["transfer"] = nameOf(kTransfers, s.transfer);
+  if (s.transfer == TransferScheme::Flip) j["flip_ratio"] = s.flip_ratio;
+  j["coupling"] = nameOf(kCouplings, s.coupling);
+  if (s.coupling == CouplingScheme::ThreeGrid) {
+    j["contact_reach"] = s.contact_reach;
+    j["contact_normal"] = nameOf(kContactNormals, s.contact_normal);
+    j["rigid_collision"] = nameOf(kRigidCollisions, s.rigid_collision);
+    j["contact_gap"] = s.contact_gap;
+    j["contact_gap_fixed"] = s.contact_gap_fixed;
+    j["front_fields"] = s.front_fields;
+    j["front_angle_deg"] = s.front_angle_deg;
+  }
+  j["contact_velocity"] = nameOf(kContactVelocities, s.contact_velocity);
+  j["solid_readback"] = nameOf(kReadbacks, s.solid_readback);
+  j["rigid_node_mass"] = nameOf(kNodeMasses, s.rigid_node_mass);
+  j["coupling_iterations"] = s.coupling_iterations;
+  j["contact_iterations"] = s.contact_iterations;
+  if (s.sleep.enabled)
+    j["sleep"] = {
+        {"speed", s.sleep.speed}, {"delay", s.sleep.delay}, {"neighbours", s.sleep.neighbours}};
+  else
+    j["sleep"] = false;
+  return j;
+}
+
 SceneDesc parseScene(const nlohmann::json& j, const std::string& source_path) {
   const ParamDict root(j, source_path);
   const std::string scene_dir = fs::path(source_path).parent_path().string();

@@ -28,4 +28,11 @@ SceneDesc loadScene(const std::string& path);
 // file itself need not exist, but mesh files must.
 SceneDesc parseScene(const nlohmann::json& j, const std::string& source_path);
 
+// The solver settings a run used, every key the scene's `solver` object
+// takes under the run's coupling and transfer, defaults included, as they
+// are written there: given back as a scene's `solver`, they parse to the
+// same settings. run.json records them, so that a run can be repeated
+// after a default changed.
+nlohmann::ordered_json solverSettings(const SolverDesc& solver);
+
 }  // namespace triad

@@ -47,6 +47,11 @@ TEST(Quality, PresetsScaleDxAndSetTheSolver) {
   EXPECT_DOUBLE_EQ(w["quality"]["dx"].get<double>(), 0.02);
   EXPECT_EQ(w["quality"]["particles_per_cell"].get<int>(), 8);
   EXPECT_EQ(w["quality"]["transfer"], "flip");
+  // Every solver setting the run used, the defaults spelled out.
+  EXPECT_EQ(w["solver"]["transfer"], "flip");
+  EXPECT_DOUBLE_EQ(w["solver"]["flip_ratio"].get<double>(), 0.9);
+  EXPECT_EQ(w["solver"]["contact_gap_fixed"], true);
+  EXPECT_EQ(w["solver"]["coupling"], "three_grid");
   // Draft: the preset's coarser grid and sampling, fewer particles.
   const QualityPreset p = *findQualityPreset("draft");
   EXPECT_EQ(d["quality"]["preset"], "draft");
@@ -56,6 +61,9 @@ TEST(Quality, PresetsScaleDxAndSetTheSolver) {
   EXPECT_LE(d["quality"]["particles_per_cell"].get<int>(), 8);
   EXPECT_DOUBLE_EQ(d["quality"]["cfl"].get<double>(), p.cfl);
   EXPECT_EQ(d["quality"]["transfer"], transferName(p.transfer));
+  // The solver settings recorded are the preset's.
+  EXPECT_DOUBLE_EQ(d["solver"]["cfl"].get<double>(), p.cfl);
+  EXPECT_EQ(d["solver"]["particles_per_cell"].get<int>(), p.particles_per_cell);
   EXPECT_LT(d["particles"]["total"].get<int>(), w["particles"]["total"].get<int>() / 4);
   // Final: a finer grid than as written, more particles.
   const test::CliResult fin = run(dir, scene, dir / "final", "--quality final");

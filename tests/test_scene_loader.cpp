@@ -411,6 +411,12 @@ TEST_F(SceneLoaderTest, DefaultsAreTheDocumentedOnes) {
        [](const SceneDesc& s) { return json(s.solver.front_angle_deg); }},
       {"solver", "contact_normal", "/solver/contact_normal",
        [](const SceneDesc& s) { return json(int(s.solver.contact_normal)); }},
+      {"solver", "rigid_collision", "/solver/rigid_collision",
+       [](const SceneDesc& s) { return json(int(s.solver.rigid_collision)); }},
+      {"solver", "contact_gap", "/solver/contact_gap",
+       [](const SceneDesc& s) { return json(s.solver.contact_gap); }},
+      {"solver", "contact_gap_fixed", "/solver/contact_gap_fixed",
+       [](const SceneDesc& s) { return json(s.solver.contact_gap_fixed); }},
       {"solver", "coupling_iterations", "/solver/coupling_iterations",
        [](const SceneDesc& s) { return json(s.solver.coupling_iterations); }},
       {"solver", "contact_iterations", "/solver/contact_iterations",
@@ -466,6 +472,54 @@ TEST_F(SceneLoaderTest, DefaultsAreTheDocumentedOnes) {
   const json documented = doc.at("solver").at("flip_ratio");
   EXPECT_EQ(load(flip).solver.flip_ratio,
             load(with(flip, "/solver/flip_ratio", documented)).solver.flip_ratio);
+}
+
+// What run.json records as the solver's settings: every key with its
+// value, defaults included, which parses back to the same settings.
+TEST_F(SceneLoaderTest, SolverSettingsParseBackToTheSameSettings) {
+  const std::vector<json> solvers = {
+      json::object(),
+      {{"cfl", 0.3},
+       {"max_dt", 5e-4},
+       {"particles_per_cell", 27},
+       {"transfer", "flip"},
+       {"flip_ratio", 0.9},
+       {"coupling", "three_grid"},
+       {"contact_reach", 0.75},
+       {"contact_normal", "samples"},
+       {"rigid_collision", "jacobi"},
+       {"contact_gap", false},
+       {"contact_gap_fixed", false},
+       {"front_fields", false},
+       {"front_angle_deg", 30.0},
+       {"contact_velocity", "before_update"},
+       {"solid_readback", "combined"},
+       {"rigid_node_mass", "body_share"},
+       {"coupling_iterations", 300},
+       {"contact_iterations", 5},
+       {"sleep", false}},
+      {{"transfer", "pic"}, {"coupling", "single_grid"}},
+      {{"front_fields", true}, {"sleep", {{"speed", 0.02}, {"delay", 0.5}, {"neighbours", false}}}},
+  };
+  for (const json& solver : solvers) {
+    const json settings = solverSettings(load(with(minimalScene(), "/solver", solver)).solver);
+    // What the scene said is there as it said it.
+    for (const auto& [key, value] : solver.items())
+      EXPECT_EQ(settings.at(key), value) << key << " in " << solver.dump();
+    // And all of it, given back as a scene's solver, reads the same.
+    const json again = solverSettings(load(with(minimalScene(), "/solver", settings)).solver);
+    EXPECT_EQ(again, settings) << solver.dump();
+  }
+  // The defaults are spelled out, the keys of one coupling or transfer
+  // only with it.
+  const json defaults = solverSettings(load(minimalScene()).solver);
+  EXPECT_EQ(defaults.at("contact_gap_fixed"), true);
+  EXPECT_EQ(defaults.at("sleep"), false);
+  EXPECT_FALSE(defaults.contains("flip_ratio"));
+  const json single =
+      solverSettings(load(with(minimalScene(), "/solver/coupling", "single_grid")).solver);
+  EXPECT_FALSE(single.contains("contact_reach"));
+  EXPECT_EQ(defaults.size(), single.size() + 7);
 }
 
 // Surface meshes are files named after materials: names that cannot name a
