@@ -103,6 +103,8 @@ int checkScene(const CheckOptions& options) {
     if (options.json) {
       nlohmann::ordered_json j = nlohmann::ordered_json::parse(estimateJson(e));
       if (!probe.is_null()) j["probe"] = probe;
+      // The settings the run would use, defaults and --quality included.
+      j["solver"] = solverSettings(scene.solver);
       std::printf("%s\n", j.dump().c_str());
     } else {
       std::printf("%s: valid; estimate:\n%s%s", scene.source_path.c_str(),

@@ -53,6 +53,9 @@ TEST(Estimate, CheckCountsTheParticlesARunMakes) {
   }
   EXPECT_EQ(est["objects"][0]["particles"].get<double>(),
             rec["particles"]["per_object"]["bed"].get<double>());
+  // The solver settings the run would use are those it records.
+  EXPECT_EQ(est["solver"], rec["solver"]);
+  EXPECT_EQ(est["solver"]["contact_gap_fixed"], true);
   // And for people: a line per object.
   const test::CliResult text = test::runTriad(dir, "check " + scene);
   EXPECT_EQ(text.status, 0);
