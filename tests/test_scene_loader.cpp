@@ -500,6 +500,9 @@ TEST_F(SceneLoaderTest, SolverSettingsParseBackToTheSameSettings) {
        {"sleep", false}},
       {{"transfer", "pic"}, {"coupling", "single_grid"}},
       {{"front_fields", true}, {"sleep", {{"speed", 0.02}, {"delay", 0.5}, {"neighbours", false}}}},
+      // The three-grid switches unlike each other: one written from
+      // another's field reads back wrong.
+      {{"contact_gap", false}, {"contact_gap_fixed", true}, {"front_fields", true}},
   };
   for (const json& solver : solvers) {
     const json settings = solverSettings(load(with(minimalScene(), "/solver", solver)).solver);

@@ -42,7 +42,8 @@ def measure(scene, out):
         near = np.abs(x - at) < 0.25 * dx + 1e-9
         return float(top[near].max()) if near.any() else 0.0
 
-    r = {"runout": (x.max() - p0["x"].max()) / L0}
+    # The validation's own run-out: the farthest particle.
+    r = {"runout": V.measure_granular(scene, out)[1]}
     # The deposit from the back wall on, in bins of a particle spacing:
     # the first bin lower than the threshold ends it.
     w = 0.5 * dx

@@ -6,7 +6,8 @@
 // the material approach by its gap in the step (a speculative contact), the
 // gap being that of the closest particle whose stencil reaches the node.
 // Nodes that moving or driven solids reach take a gap, and with
-// solver.contact_gap_fixed those of fixed solids too: without it, sand or
+// solver.contact_gap_fixed (the default) those of fixed solids too:
+// without it, sand or
 // water falling onto a fixed floor comes to rest 0.65-1.08 dx above its
 // face (where the face lies in its cell decides how far), against half a
 // particle spacing with it.
