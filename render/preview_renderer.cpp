@@ -41,14 +41,17 @@ vec3 shade(vec3 albedo, vec3 n, vec3 v) {
 const char* kParticleVs = R"(#version 330 core
 layout(location = 0) in vec3 center;
 layout(location = 1) in uint object;
+layout(location = 2) in uvec2 key;  // draw order, for compositing layers
 uniform mat4 view;
 uniform mat4 proj;
 uniform float radius;
 uniform vec3 palette[10];
 flat out vec3 c_view;
 flat out vec3 albedo;
+flat out uvec2 k;
 out vec3 p_view;
 void main() {
+  k = key;
   vec2 corner = vec2((gl_VertexID & 1) != 0 ? 1.0 : -1.0, (gl_VertexID & 2) != 0 ? 1.0 : -1.0);
   vec3 c = (view * vec4(center, 1.0)).xyz;
   float d = length(c);
@@ -73,11 +76,14 @@ void main() {
 const char* kParticleFs = R"(
 flat in vec3 c_view;
 flat in vec3 albedo;
+flat in uvec2 k;
 in vec3 p_view;
 uniform mat4 proj;
 uniform float radius;
-out vec4 frag;
+layout(location = 0) out vec4 frag;
+layout(location = 1) out uvec2 tag;
 void main() {
+  tag = k;
   // Ray from the eye through this fragment against the sphere.
   vec3 dir = normalize(p_view);
   float b = dot(dir, c_view);
@@ -111,8 +117,10 @@ const char* kMeshFs = R"(
 in vec3 p_view;
 in vec3 n_view;
 uniform vec3 color;
-out vec4 frag;
+layout(location = 0) out vec4 frag;
+layout(location = 1) out uvec2 tag;
 void main() {
+  tag = uvec2(0u);
   vec3 v = normalize(-p_view);
   vec3 n = normalize(n_view);
   if (dot(n, v) < 0.0) n = -n;  // two-sided
@@ -138,8 +146,10 @@ uniform vec2 dom_max;
 uniform float cell;
 uniform float fade;
 uniform vec3 far_color;
-out vec4 frag;
+layout(location = 0) out vec4 frag;
+layout(location = 1) out uvec2 tag;
 void main() {
+  tag = uvec2(0u);
   vec2 c = floor(xz / cell);
   float parity = mod(c.x + c.y, 2.0);
   vec3 col = mix(vec3(0.56, 0.56, 0.55), vec3(0.66, 0.66, 0.65), parity);
@@ -158,8 +168,12 @@ void main() { gl_Position = proj * view * vec4(pos, 1.0); }
 
 const char* kFlatFs = R"(#version 330 core
 uniform vec3 color;
-out vec4 frag;
-void main() { frag = vec4(color, 1.0); }
+layout(location = 0) out vec4 frag;
+layout(location = 1) out uvec2 tag;
+void main() {
+  frag = vec4(color, 1.0);
+  tag = uvec2(0xFFFFFFFFu);  // the outline: drawn after every particle
+}
 )";
 
 const char* kBackgroundVs = R"(#version 330 core
@@ -175,8 +189,12 @@ const char* kBackgroundFs = R"(#version 330 core
 in float t;
 uniform vec3 top;
 uniform vec3 bottom;
-out vec4 frag;
-void main() { frag = vec4(mix(bottom, top, clamp(t, 0.0, 1.0)), 1.0); }
+layout(location = 0) out vec4 frag;
+layout(location = 1) out uvec2 tag;
+void main() {
+  frag = vec4(mix(bottom, top, clamp(t, 0.0, 1.0)), 1.0);
+  tag = uvec2(0u);
+}
 )";
 
 std::string litFragment(const char* body) { return std::string("#version 330 core\n") + kShadeGlsl + body; }
@@ -202,8 +220,11 @@ struct PreviewRenderer::Impl {
   PreviewSettings settings;
   GlContext gl;
   GLuint vao = 0, particle_vbo = 0, object_vbo = 0, mesh_vbo = 0, ground_vbo = 0, box_vbo = 0;
+  GLuint key_vbo = 0;
   GLuint fbo = 0, color_rb = 0, depth_rb = 0;
-  int fb_w = 0, fb_h = 0;
+  GLuint key_rb = 0;  // the layers' draw-order keys; made for the first layer
+  int fb_w = 0, fb_h = 0, key_w = 0, key_h = 0;
+  std::vector<uint32_t> key_words;
   GLuint particle_prog = 0, mesh_prog = 0, ground_prog = 0, flat_prog = 0, bg_prog = 0;
   std::vector<uint8_t> pixels;
   std::vector<float> scratch;
@@ -215,13 +236,14 @@ struct PreviewRenderer::Impl {
     flat_prog = compileProgram("outline", kFlatVs, kFlatFs);
     bg_prog = compileProgram("background", kBackgroundVs, kBackgroundFs);
     glGenVertexArrays(1, &vao);
-    GLuint bufs[5];
-    glGenBuffers(5, bufs);
+    GLuint bufs[6];
+    glGenBuffers(6, bufs);
     particle_vbo = bufs[0];
     object_vbo = bufs[1];
     mesh_vbo = bufs[2];
     ground_vbo = bufs[3];
     box_vbo = bufs[4];
+    key_vbo = bufs[5];
     glGenFramebuffers(1, &fbo);
     glGenRenderbuffers(1, &color_rb);
     glGenRenderbuffers(1, &depth_rb);
@@ -259,6 +281,26 @@ struct PreviewRenderer::Impl {
     fb_h = h;
   }
 
+  // A second colour attachment for the draw-order keys, only while a layer
+  // is drawn (a plain preview needs none: 8 more bytes a pixel).
+  void attachKeys(bool on) {
+    glBindFramebuffer(GL_FRAMEBUFFER, fbo);
+    if (on && (key_w != fb_w || key_h != fb_h)) {
+      if (key_rb == 0) glGenRenderbuffers(1, &key_rb);
+      glBindRenderbuffer(GL_RENDERBUFFER, key_rb);
+      glRenderbufferStorage(GL_RENDERBUFFER, GL_RG32UI, fb_w, fb_h);
+      key_w = fb_w;
+      key_h = fb_h;
+    }
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT1, GL_RENDERBUFFER,
+                              on ? key_rb : 0);
+    const GLenum both[2] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
+    glDrawBuffers(on ? 2 : 1, both);
+    if (on && glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
+      throw std::runtime_error("preview: the layer's framebuffer is incomplete");
+    checkGl("layer attachment");
+  }
+
   void setCommonUniforms(GLuint prog, const CameraMatrices& m) {
     glUseProgram(prog);
     glUniformMatrix4fv(glGetUniformLocation(prog, "view"), 1, GL_FALSE, m.view.data());
@@ -273,9 +315,14 @@ struct PreviewRenderer::Impl {
     }
   }
 
-  Image render(const PreviewParticles& particles, const std::vector<PreviewMesh>& meshes) {
+  // Draws the frame into the framebuffer; with `layer`, also each pixel's
+  // draw-order key (particles' from `keys`), and reads back the pixels,
+  // depths and keys into it.
+  void draw(const PreviewParticles& particles, const std::vector<PreviewMesh>& meshes,
+            const uint64_t* keys, PreviewLayer* layer) {
     gl.makeCurrent();
     ensureFramebuffer();
+    attachKeys(layer != nullptr);
     const PreviewSettings& s = settings;
     const Box& d = s.domain;
     const double ext_x = d.max[0] - d.min[0], ext_z = d.max[2] - d.min[2];
@@ -302,6 +349,10 @@ struct PreviewRenderer::Impl {
     glDisable(GL_CULL_FACE);
     glClearDepth(1.0);
     glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+    if (layer) {
+      const GLuint none[4] = {0, 0, 0, 0};
+      glClearBufferuiv(GL_COLOR, 1, none);
+    }
 
     // Background gradient, behind everything.
     glDisable(GL_DEPTH_TEST);
@@ -394,10 +445,29 @@ struct PreviewRenderer::Impl {
       glEnableVertexAttribArray(1);
       glVertexAttribIPointer(1, 1, GL_UNSIGNED_SHORT, 0, nullptr);
       glVertexAttribDivisor(1, 1);
+      if (layer) {
+        // Each key as two words, low first.
+        key_words.resize(2 * particles.count);
+        for (size_t i = 0; i < particles.count; ++i) {
+          key_words[2 * i] = uint32_t(keys[i]);
+          key_words[2 * i + 1] = uint32_t(keys[i] >> 32);
+        }
+        glBindBuffer(GL_ARRAY_BUFFER, key_vbo);
+        glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(key_words.size() * sizeof(uint32_t)),
+                     key_words.data(), GL_STREAM_DRAW);
+        glEnableVertexAttribArray(2);
+        glVertexAttribIPointer(2, 2, GL_UNSIGNED_INT, 0, nullptr);
+        glVertexAttribDivisor(2, 1);
+      }
       glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, GLsizei(particles.count));
       glVertexAttribDivisor(0, 0);
       glVertexAttribDivisor(1, 0);
       glDisableVertexAttribArray(1);
+      if (layer) {
+        glVertexAttribDivisor(2, 0);
+        glDisableVertexAttribArray(2);
+        key_words = {};
+      }
     }
 
     // Domain outline, hidden where material is in front of it.
@@ -428,11 +498,36 @@ struct PreviewRenderer::Impl {
       glLineWidth(1.0f);
     }
 
-    pixels.resize(size_t(fb_w) * fb_h * 4);
     glPixelStorei(GL_PACK_ALIGNMENT, 1);
-    glReadPixels(0, 0, fb_w, fb_h, GL_RGBA, GL_UNSIGNED_BYTE, pixels.data());
-    checkGl("preview render");
-    Image image = downsampleRgbaBottomUp(pixels.data(), s.width, s.height, s.supersample);
+    if (!layer) {
+      pixels.resize(size_t(fb_w) * fb_h * 4);
+      glReadPixels(0, 0, fb_w, fb_h, GL_RGBA, GL_UNSIGNED_BYTE, pixels.data());
+      checkGl("preview render");
+      return;
+    }
+    layer->width = fb_w;
+    layer->height = fb_h;
+    const size_t n = layer->pixels();
+    layer->rgba.resize(4 * n);
+    layer->depth.resize(n);
+    layer->key.resize(n);
+    glReadBuffer(GL_COLOR_ATTACHMENT0);
+    glReadPixels(0, 0, fb_w, fb_h, GL_RGBA, GL_UNSIGNED_BYTE, layer->rgba.data());
+    glReadPixels(0, 0, fb_w, fb_h, GL_DEPTH_COMPONENT, GL_UNSIGNED_INT, layer->depth.data());
+    key_words.resize(2 * n);
+    glReadBuffer(GL_COLOR_ATTACHMENT1);
+    glReadPixels(0, 0, fb_w, fb_h, GL_RG_INTEGER, GL_UNSIGNED_INT, key_words.data());
+    glReadBuffer(GL_COLOR_ATTACHMENT0);
+    for (size_t i = 0; i < n; ++i)
+      layer->key[i] = uint64_t(key_words[2 * i + 1]) << 32 | key_words[2 * i];
+    key_words = {};
+    checkGl("preview layer");
+  }
+
+  // The supersampled pixels box-filtered to the preview's size, legend drawn.
+  Image finish(const uint8_t* rgba) const {
+    const PreviewSettings& s = settings;
+    Image image = downsampleRgbaBottomUp(rgba, s.width, s.height, s.supersample);
     drawLegend(image, s.legend);
     return image;
   }
@@ -455,7 +550,29 @@ void PreviewRenderer::setSettings(const PreviewSettings& settings) {
 
 Image PreviewRenderer::render(const PreviewParticles& particles,
                               const std::vector<PreviewMesh>& meshes) {
-  return impl_->render(particles, meshes);
+  impl_->draw(particles, meshes, nullptr, nullptr);
+  return impl_->finish(impl_->pixels.data());
+}
+
+PreviewLayer PreviewRenderer::renderLayer(const PreviewParticles& particles,
+                                          const std::vector<PreviewMesh>& meshes,
+                                          const uint64_t* keys) {
+  for (size_t i = 0; i < particles.count; ++i)
+    if (keys[i] < kFirstParticleKey || keys[i] == kOutlineKey || (i > 0 && keys[i] <= keys[i - 1]))
+      throw std::runtime_error("preview layer: particle keys must ascend within (" +
+                               std::to_string(kFirstParticleKey) + ", 2^64 - 1)");
+  PreviewLayer layer;
+  impl_->draw(particles, meshes, keys, &layer);
+  return layer;
+}
+
+Image PreviewRenderer::finish(const PreviewLayer& layer) const {
+  const PreviewSettings& s = impl_->settings;
+  if (layer.width != s.width * s.supersample || layer.height != s.height * s.supersample ||
+      layer.rgba.size() != 4 * layer.pixels())
+    throw std::runtime_error("preview layer: " + std::to_string(layer.width) + "x" +
+                             std::to_string(layer.height) + " is not this preview's size");
+  return impl_->finish(layer.rgba.data());
 }
 
 std::string PreviewRenderer::glDescription() { return impl_->gl.description(); }

@@ -14,6 +14,7 @@
 
 #include "render/camera.h"
 #include "render/image.h"
+#include "render/preview_layers.h"
 
 namespace triad::render {
 
@@ -81,6 +82,16 @@ class PreviewRenderer {
 
   Image render(const PreviewParticles& particles, const std::vector<PreviewMesh>& meshes = {});
   Image render(const PreviewFrame& frame) { return render(frame.particles(), frame.meshes); }
+
+  // The same drawing kept at its supersampled size, with each pixel's depth
+  // and draw-order key (render/preview_layers.h), for compositing with the
+  // layers other processes drew of their particles. `keys`: one for each
+  // particle, ascending (the particles are drawn in that order), between
+  // kFirstParticleKey and kOutlineKey; throws std::runtime_error otherwise.
+  PreviewLayer renderLayer(const PreviewParticles& particles,
+                           const std::vector<PreviewMesh>& meshes, const uint64_t* keys);
+  // A layer (composited or not) as the preview render() gives.
+  Image finish(const PreviewLayer& layer) const;
 
   // "llvmpipe (LLVM ...), OpenGL 3.3 ..." for benchmark records.
   std::string glDescription();

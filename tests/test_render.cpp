@@ -259,6 +259,85 @@ TEST(Render, MeshesAreDrawnInTheirColour) {
   EXPECT_GT(saturation(img.at(s.width / 2, s.height / 2)), 40);
 }
 
+// Particles split between layers (as between processes), each layer drawn
+// alone and composited by depth and draw-order key, give the image of all
+// of them drawn at once, byte for byte: ties included (every third particle
+// has a twin of another colour at the same place, drawn later, in another
+// layer; some lie on the domain's outline; a mesh cuts through them).
+TEST(Render, LayersCompositeToTheWholeFrame) {
+  PreviewSettings s = smallSettings();
+  s.legend = {{"sand", objectColor(1)}};
+  PreviewFrame whole;
+  std::vector<int> layer_of;
+  auto add = [&](float x, float y, float z, int object, int layer) {
+    whole.xyz.insert(whole.xyz.end(), {x, y, z});
+    whole.object.push_back(uint16_t(object));
+    layer_of.push_back(layer);
+  };
+  for (int i = 0; i < 600; ++i) {
+    const float x = 0.03f * float(i % 12), y = 0.03f * float(i / 72),
+                z = 0.03f * float((i / 12) % 6);
+    add(x, y, z, i % 3, i % 3);
+    if (i % 3 == 0) add(x, y, z, 5, 1 + (i / 3) % 2);  // the twin, drawn after it
+  }
+  PreviewMesh tri;
+  tri.xyz = {0.0f, 0.0f, 0.1f, 0.4f, 0.0f, 0.1f, 0.2f, 0.3f, 0.1f};
+  tri.triangles = {0, 1, 2};
+  tri.object = 4;
+  whole.meshes.push_back(tri);
+  PreviewRenderer r(s);
+  const Image expected = r.render(whole);
+
+  std::vector<PreviewLayer> layers;
+  for (int l = 0; l < 3; ++l) {
+    PreviewFrame part;
+    std::vector<uint64_t> keys;
+    for (size_t i = 0; i < layer_of.size(); ++i)
+      if (layer_of[i] == l) {
+        part.xyz.insert(part.xyz.end(), &whole.xyz[3 * i], &whole.xyz[3 * i] + 3);
+        part.object.push_back(whole.object[i]);
+        keys.push_back(kFirstParticleKey + i);
+      }
+    layers.push_back(r.renderLayer(part.particles(), whole.meshes, keys.data()));
+  }
+  // One layer of every particle is the plain render.
+  {
+    std::vector<uint64_t> keys(whole.object.size());
+    for (size_t i = 0; i < keys.size(); ++i) keys[i] = kFirstParticleKey + i;
+    EXPECT_TRUE(r.finish(r.renderLayer(whole.particles(), whole.meshes, keys.data())).rgb ==
+                expected.rgb);
+  }
+  PreviewLayer composite = layers[0];
+  size_t sent = 0;
+  for (int l : {2, 1}) {  // in any order
+    const std::vector<LayerPixel> px = particlePixels(layers[size_t(l)]);
+    sent += px.size();
+    mergePixels(composite, px.data(), px.size());
+  }
+  EXPECT_GT(sent, 1000u);
+  EXPECT_LT(sent, composite.pixels() / 2);
+  const Image got = r.finish(composite);
+  const ImageDiff diff = compareImages(got, expected, 0);
+  std::printf("composited from %zu pixels of two layers: %.5f of pixels differ\n", sent,
+              diff.fraction_over);
+  EXPECT_TRUE(got.rgb == expected.rgb);
+
+  // The keys decide ties: the later-drawn twins winning them is another image.
+  PreviewLayer later = layers[0];
+  for (int l : {1, 2}) {
+    std::vector<LayerPixel> px = particlePixels(layers[size_t(l)]);
+    for (LayerPixel& p : px) p.key = 0;
+    mergePixels(later, px.data(), px.size());
+  }
+  EXPECT_FALSE(r.finish(later).rgb == expected.rgb);
+
+  // Keys out of order, or outside the particles' range, are refused.
+  const uint64_t bad[2] = {5, 5};
+  EXPECT_THROW(r.renderLayer({whole.xyz.data(), whole.object.data(), 2}, {}, bad),
+               std::runtime_error);
+  EXPECT_THROW(r.finish(PreviewLayer{}), std::runtime_error);
+}
+
 TEST(Render, RejectsUnusableSettings) {
   PreviewSettings s = smallSettings();
   s.width = 0;
