@@ -15,6 +15,9 @@
 #include "sim/world.h"
 
 namespace triad {
+namespace render {
+struct Image;
+}
 
 // Cache paths, shared with readers and tests (particlesPath: run_scene.h).
 std::string volumesPath(const std::string& out_dir, int frame);
@@ -44,8 +47,9 @@ struct BodyLogs {
 void makeOutputDirectories(const SceneDesc& scene, const std::string& out_dir);
 
 // A split run's frame files that its processes wrote together: the
-// temporaries to rename into place (empty: not written that way), and the
-// volumes' sums they splatted (null: splat the world's particles).
+// temporaries to rename into place (empty: not written that way), the
+// volumes' sums they splatted (null: splat the world's particles) and the
+// preview they drew.
 struct SharedWrites {
   std::string particles, vtk_particles, checkpoint;
   struct Volumes {
@@ -53,6 +57,8 @@ struct SharedWrites {
     VolumeScale scale;
   };
   std::shared_ptr<const Volumes> volumes;
+  // The preview its processes drew together (null: draw the world's particles).
+  std::shared_ptr<const render::Image> preview;
 };
 
 // Writes the frame's cache files that the scene asks for: PLY particles, the

@@ -166,12 +166,23 @@ int runScene(const RunOptions& options_in) {
 
   // The preview renderer keeps one OSMesa context for the whole run. Made
   // before the writer, so that the writer's thread ends before it goes.
+  // Split over processes, every process draws its own particles and
+  // process 0 composites them (not for surfaces, which process 0 makes
+  // from every particle's position).
   std::unique_ptr<render::PreviewWriter> preview;
-  if (scene.output.png && split.root()) {
+  std::unique_ptr<render::PreviewRenderer> layers;
+  const bool composited_previews =
+      split.active() && scene.output.png && scene.render.style != RenderStyle::Surface;
+  if (scene.output.png && (split.root() || composited_previews)) {
     try {
-      preview = std::make_unique<render::PreviewWriter>(scene, out_dir);
+      if (split.root())
+        preview = std::make_unique<render::PreviewWriter>(scene, out_dir);
+      else
+        layers = std::make_unique<render::PreviewRenderer>(render::previewSettingsForScene(scene));
     } catch (const std::exception& e) {
-      std::fprintf(stderr, "triad: error: previews: %s\n", e.what());
+      std::fprintf(stderr, "triad: error: %spreviews: %s\n",
+                   split.active() ? ("process " + std::to_string(split.rank()) + ": ").c_str() : "",
+                   e.what());
       split.abort(kExitRunFailed);
     }
   }
@@ -366,7 +377,9 @@ int runScene(const RunOptions& options_in) {
     writeFrameBodies(out_dir, w, frame, body_logs, loads);
     // The preview render (rigid bodies drawn as meshes; with render.style
     // "surface" the materials' surfaces instead of their particles).
-    if (preview) {
+    if (preview && shared.preview) {
+      preview->writeImage(frame, *shared.preview);
+    } else if (preview) {
       const bool surface_style = scene.render.style == RenderStyle::Surface;
       std::vector<render::PreviewMesh> meshes;
       for (const auto& [m, mesh] : surfaces)
@@ -389,7 +402,7 @@ int runScene(const RunOptions& options_in) {
   // into, and what process 0 gathers of every particle for the rest.
   const bool shared_files = split.active() && split.sharedFiles();
   const bool shared_volumes = split.active() && scene.output.vdb;
-  const RunSplit::Gather gather = split.planOutput(scene.output, rec);
+  const RunSplit::Gather gather = split.planOutput(scene.output, composited_previews, rec);
   const double vdb_voxel =
       scene.output.vdb_voxel_size > 0 ? scene.output.vdb_voxel_size : scene.domain.dx;
   auto writeFrame = [&](int frame) {
@@ -423,6 +436,9 @@ int runScene(const RunOptions& options_in) {
       volumes->sums = split.splatVolumesShared(world, vdb_voxel, volumes->scale);
       shared.volumes = std::move(volumes);
     }
+    if (composited_previews)
+      shared.preview = std::make_shared<const render::Image>(
+          split.renderPreview(split.root() ? preview->renderer() : *layers, world));
     // The frame's state; the world itself is copied only when the solver
     // steps on while it is written. Split over processes, process 0 gathers
     // every particle into a copy of its own where an output needs them all,

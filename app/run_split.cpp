@@ -7,6 +7,8 @@
 #include <tuple>
 
 #include "export/run_record.h"
+#include "render/preview_renderer.h"
+#include "render/preview_writer.h"
 #include "sim/solver.h"
 #include "sim/world.h"
 
@@ -96,6 +98,60 @@ std::shared_ptr<const World> RunSplit::gather(World& world, Gather what) {
   return copy;
 }
 
+render::Image RunSplit::renderPreview(render::PreviewRenderer& renderer, const World& world) {
+  // This process's particles in the order process 0 would draw them all:
+  // set by set, each by sequence number (the gather's order).
+  const std::vector<std::vector<uint64_t>> seq = domain_->sequences(world.sets);
+  const render::PreviewFrame frame = render::previewFrameFromWorld(world);
+  std::vector<uint64_t> keys;
+  keys.reserve(frame.object.size());
+  for (size_t s = 0; s < seq.size(); ++s)
+    for (const uint64_t q : seq[s]) keys.push_back(uint64_t(s + 1) << 56 | q);
+  std::vector<uint32_t> order(keys.size());
+  for (uint32_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) { return keys[a] < keys[b]; });
+  std::vector<float> xyz(3 * order.size());
+  std::vector<uint16_t> object(order.size());
+  std::vector<uint64_t> sorted(order.size());
+  for (size_t j = 0; j < order.size(); ++j) {
+    std::copy_n(&frame.xyz[3 * size_t(order[j])], 3, &xyz[3 * j]);
+    object[j] = frame.object[order[j]];
+    sorted[j] = render::kFirstParticleKey + keys[order[j]];
+  }
+  render::PreviewLayer layer =
+      renderer.renderLayer({xyz.data(), object.data(), object.size()}, frame.meshes, sorted.data());
+  // Process 0 takes each other process's particle pixels in turn, in
+  // chunks of 4 MiB (MPI's int counts; no process holds more than its own
+  // layer and one chunk besides).
+  const double t0 = MPI_Wtime();
+  constexpr int kTag = 11;
+  constexpr size_t kChunk = (size_t(4) << 20) / sizeof(render::LayerPixel);
+  if (!root()) {
+    const std::vector<render::LayerPixel> px = render::particlePixels(layer);
+    const uint64_t count = px.size();
+    MPI_Send(&count, 1, MPI_UINT64_T, 0, kTag, MPI_COMM_WORLD);
+    for (size_t first = 0; first < px.size(); first += kChunk)
+      MPI_Send(px.data() + first, int(std::min(kChunk, px.size() - first) * sizeof(px[0])),
+               MPI_BYTE, 0, kTag, MPI_COMM_WORLD);
+    preview_seconds_ += MPI_Wtime() - t0;
+    preview_bytes_ += double(sizeof(count) + px.size() * sizeof(px[0]));
+    return {};
+  }
+  std::vector<render::LayerPixel> chunk;
+  for (int r = 1; r < size_; ++r) {
+    uint64_t count = 0;
+    MPI_Recv(&count, 1, MPI_UINT64_T, r, kTag, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+    for (uint64_t first = 0; first < count; first += kChunk) {
+      chunk.resize(size_t(std::min<uint64_t>(kChunk, count - first)));
+      MPI_Recv(chunk.data(), int(chunk.size() * sizeof(chunk[0])), MPI_BYTE, r, kTag,
+               MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+      render::mergePixels(layer, chunk.data(), chunk.size());
+    }
+  }
+  preview_seconds_ += MPI_Wtime() - t0;
+  return renderer.finish(layer);
+}
+
 double RunSplit::sum(double value) {
   return domain_ ? domain_->sum(value) : value;
 }
@@ -138,9 +194,9 @@ void RunSplit::record(RunRecord& rec, const World& world) {
                                " s: the split run went wrong (please report it)");
   // Each process's figures for run.json, seven per process.
   const std::vector<double> mine{double(world.particleCount()),
-                                 domain_->commSeconds(),
+                                 domain_->commSeconds() + preview_seconds_,
                                  domain_->balanceSeconds(),
-                                 double(domain_->bytesSent()),
+                                 double(domain_->bytesSent()) + preview_bytes_,
                                  double(domain_->particlesReceived()),
                                  double(peakResidentBytes()),
                                  built_};
@@ -191,6 +247,9 @@ void RunSplit::rebalance(World&) {}
 std::shared_ptr<const World> RunSplit::gather(World&, Gather) {
   return nullptr;
 }
+render::Image RunSplit::renderPreview(render::PreviewRenderer&, const World&) {
+  return {};
+}
 double RunSplit::sum(double value) {
   return value;
 }
@@ -205,18 +264,21 @@ void RunSplit::abort(int code) {
 
 #endif
 
-RunSplit::Gather RunSplit::planOutput(const OutputDesc& o, RunRecord& rec) const {
+RunSplit::Gather RunSplit::planOutput(const OutputDesc& o, bool composited_previews,
+                                      RunRecord& rec) const {
   if (!active()) return Gather::None;
   const bool together = shared_files_;
   const bool whole = !together && (o.ply || o.vtk || o.checkpoints);
-  const bool positions = o.png || o.surface_mesh || (o.vdb && o.vdb_surface);
+  const bool drawn = o.png && !composited_previews;
+  const bool positions = drawn || o.surface_mesh || (o.vdb && o.vdb_surface);
   const Gather gather = whole ? Gather::Whole : positions ? Gather::Positions : Gather::None;
   for (const auto& [on, each, name] : {std::tuple{o.ply, together, "particles"},
                                        {o.vdb, true, "volumes"},
                                        {o.vtk, together, "vtk particles"},
-                                       {o.checkpoints, together, "checkpoints"}})
+                                       {o.checkpoints, together, "checkpoints"},
+                                       {o.png, composited_previews, "previews"}})
     if (on && each) rec.mpi_files_together.push_back(name);
-  for (const auto& [on, name] : {std::pair{o.png, "previews"},
+  for (const auto& [on, name] : {std::pair{drawn, "previews"},
                                  {o.surface_mesh, "surfaces"},
                                  {o.vdb && o.vdb_surface, "volumes' surface"},
                                  {o.vtk && !together, "vtk particles"},

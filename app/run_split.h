@@ -22,6 +22,10 @@ struct StepRecord;
 struct VoxelSum;
 struct VolumeScale;
 class MpiDomain;
+namespace render {
+class PreviewRenderer;
+struct Image;
+}  // namespace render
 
 // A failure that every process of a split run meets together (they agreed
 // on it in an exchange): each process can end on its own, none waits in an
@@ -66,11 +70,13 @@ class RunSplit {
     Whole       // every attribute
   };
   // What process 0 gathers of every particle for the frames' files that
-  // `output` asks for: previews and surfaces read positions alone; VTK
+  // `output` asks for: surfaces, and previews of surfaces, read positions alone; VTK
   // files, and a particle cache or checkpoint that process 0 writes alone
   // (sharedFiles() false), every attribute. The volumes' density and
   // velocity each process splats itself. Says so in `rec`'s mpi fields.
-  Gather planOutput(const OutputDesc& output, RunRecord& rec) const;
+  // `composited_previews`: previews are drawn by renderPreview(), which
+  // needs no gather.
+  Gather planOutput(const OutputDesc& output, bool composited_previews, RunRecord& rec) const;
   // The world with every process's particles, on process 0 (null on the
   // others). The world's own particles are set aside while it is copied,
   // not copied.
@@ -103,6 +109,14 @@ class RunSplit {
   // particles on voxels of size h, added up on process 0 (empty on the
   // others), and the scale they share.
   std::vector<VoxelSum> splatVolumesShared(const World& world, double h, VolumeScale& scale);
+  // Collective: the frame's preview of every process's particles, each
+  // process drawing its own with `renderer` (solids and the rest alike on
+  // every process) and process 0 compositing the layers by depth and draw
+  // order (render/preview_layers.h): the image one process draws of the
+  // whole world, byte for byte. No process holds another's particles, and
+  // each sends only the pixels where its particles show. On process 0;
+  // empty on the others.
+  render::Image renderPreview(render::PreviewRenderer& renderer, const World& world);
   // Sums over processes.
   double sum(double value);
   // The largest pending signal of any process (0: none).
@@ -118,6 +132,8 @@ class RunSplit {
   int rank_ = 0, size_ = 1;
   std::unique_ptr<MpiDomain> domain_;
   double built_ = 0.0;  // particles this process held when the split began
+  double preview_seconds_ = 0.0;  // in renderPreview's exchange, so far
+  double preview_bytes_ = 0.0;    // sent by it, so far
   bool shared_files_ = false;
 };
 

@@ -669,6 +669,18 @@ bool MpiDomain::wholeIndex(const std::vector<ParticleSet>& sets,
   return true;
 }
 
+std::vector<std::vector<uint64_t>> MpiDomain::sequences(
+    const std::vector<ParticleSet>& sets) const {
+  std::vector<std::vector<uint64_t>> out(sets.size());
+  for (size_t s = 0; s < sets.size(); ++s) {
+    const bool numbered = !seq_fresh_ && s < seq_.size() && seq_[s].size() == sets[s].size();
+    out[s].resize(sets[s].size());
+    for (size_t i = 0; i < out[s].size(); ++i)
+      out[s][i] = numbered ? seq_[s][i] : uint64_t(rank_) << 40 | i;
+  }
+  return out;
+}
+
 double MpiDomain::sum(double value) {
   const double t0 = MPI_Wtime();
   check(MPI_Allreduce(MPI_IN_PLACE, &value, 1, MPI_DOUBLE, MPI_SUM, comm_), "Allreduce");

@@ -52,6 +52,9 @@ class MpiDomain final : public DomainExchange, public ParticleShare {
   void gather(const std::vector<ParticleSet>& sets, std::vector<ParticleSet>& all,
               bool positions = false);
   double sum(double value);
+  // Per set, each particle's sequence number: gather() puts the particles
+  // of each set in ascending order of these. Below 2^56.
+  std::vector<std::vector<uint64_t>> sequences(const std::vector<ParticleSet>& sets) const;
   // Per set, each particle's index in the whole world as gather() orders
   // it, so that each process can write its own particles into a file of
   // the whole world; and per set the whole world's count. False (nothing

@@ -99,6 +99,11 @@ double PreviewWriter::writeFrame(const World& world, int frame,
   }
   f.meshes.insert(f.meshes.end(), meshes.begin(), meshes.end());
   const Image image = renderer_->render(f);
+  return seconds(t0) + writeImage(frame, image);
+}
+
+double PreviewWriter::writeImage(int frame, const Image& image) {
+  const auto t0 = std::chrono::steady_clock::now();
   writePng(previewImagePath(out_dir_, frame), image);
   thumbnails_[frame] = holdThumbnail(image);
   return seconds(t0);

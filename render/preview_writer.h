@@ -50,10 +50,14 @@ class PreviewWriter {
   // "surface": `meshes` holds the materials' surfaces instead).
   double writeFrame(const World& world, int frame, const std::vector<PreviewMesh>& meshes = {},
                     bool particles = true);
+  // Writes `image`, the frame's preview drawn elsewhere (composited from
+  // the processes of a split run), as writeFrame would. Returns seconds spent.
+  double writeImage(int frame, const Image& image);
   // Writes the contact sheet of every preview in OUT/preview. Returns seconds spent.
   double finish();
 
   const PreviewSettings& settings() const { return settings_; }
+  PreviewRenderer& renderer() { return *renderer_; }
 
  private:
   std::string out_dir_;

@@ -242,6 +242,53 @@ TEST_F(Mpi, TwoAndThreeProcessesAgreeWithOne) {
   }
 }
 
+// Previews under two and three processes: each draws its own particles and
+// process 0 composites the layers by depth and draw order, so no process
+// gathers particles for them; the previews and the contact sheet are the
+// single process's bytes. Every material and a rigid ball falling into them
+// (drawn by every process), the camera close enough that the particles
+// overlap and a process's particles hide another's.
+TEST_F(Mpi, PreviewsAreCompositedFromEveryProcessToOneProcesssBytes) {
+  const fs::path dir = test::tempDir("previews");
+  const int frames = 4;
+  json j = everyMaterial(frames);
+  j["objects"].push_back(
+      {{"name", "ball"},
+       {"kind", "rigid"},
+       {"density", 500},
+       {"velocity", {0, -1, 0}},
+       {"shape", {{"sphere", {{"center", {0.3, 0.3, 0.1}}, {"radius", 0.06}}}}}});
+  j["output"] = {{"vdb", false}, {"ply", true}, {"png", true}};
+  j["render"] = {
+      {"resolution", {320, 180}},
+      {"camera", {{"eye", {0.9, 0.45, 0.7}}, {"target", {0.3, 0.12, 0.1}}, {"fov_deg", 40}}}};
+  const std::string scene = test::writeScene(dir, j);
+  const test::CliResult one = run(dir, scene, dir / "one", "OMP_NUM_THREADS=1");
+  ASSERT_EQ(one.status, 0) << one.err;
+  auto preview = [](const fs::path& out, int f) {
+    char name[32];
+    std::snprintf(name, sizeof(name), "preview.%04d.png", f);
+    return out / "preview" / name;
+  };
+  for (int n : {2, 3}) {
+    const fs::path out = dir / ("np" + std::to_string(n));
+    const test::CliResult r = run(dir, scene, out, mpirun(n));
+    ASSERT_EQ(r.status, 0) << r.err;
+    const json mpi = runJson(out)["mpi"];
+    EXPECT_EQ(mpi["gathered"], "nothing") << mpi.dump();
+    EXPECT_EQ(mpi["gathered_for"], json::array());
+    EXPECT_EQ(mpi["written_by_every_process"],
+              json::array({"particles", "checkpoints", "previews"}));
+    for (int f = 0; f <= frames; ++f) {
+      EXPECT_TRUE(sameFile(framePly(out, f), framePly(dir / "one", f))) << n << " frame " << f;
+      EXPECT_TRUE(sameFile(preview(out, f), preview(dir / "one", f))) << n << " frame " << f;
+    }
+    EXPECT_TRUE(sameFile(out / "preview" / "contact_sheet.png",
+                         dir / "one" / "preview" / "contact_sheet.png"))
+        << n;
+  }
+}
+
 // No process builds the whole world: each makes only its share of the
 // particles (their positions alone are made whole, 12 bytes each), and the
 // run is the same bytes as when each built everything and kept its share.
