@@ -101,33 +101,38 @@ std::shared_ptr<const World> RunSplit::gather(World& world, Gather what) {
 render::Image RunSplit::renderPreview(render::PreviewRenderer& renderer, const World& world) {
   // This process's particles in the order process 0 would draw them all:
   // set by set, each by sequence number (the gather's order).
-  const std::vector<std::vector<uint64_t>> seq = domain_->sequences(world.sets);
-  const render::PreviewFrame frame = render::previewFrameFromWorld(world);
-  std::vector<uint64_t> keys;
-  keys.reserve(frame.object.size());
-  for (size_t s = 0; s < seq.size(); ++s)
-    for (const uint64_t q : seq[s]) keys.push_back(uint64_t(s + 1) << 56 | q);
-  std::vector<uint32_t> order(keys.size());
-  for (uint32_t i = 0; i < order.size(); ++i) order[i] = i;
-  std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) { return keys[a] < keys[b]; });
-  std::vector<float> xyz(3 * order.size());
-  std::vector<uint16_t> object(order.size());
-  std::vector<uint64_t> sorted(order.size());
-  for (size_t j = 0; j < order.size(); ++j) {
-    std::copy_n(&frame.xyz[3 * size_t(order[j])], 3, &xyz[3 * j]);
-    object[j] = frame.object[order[j]];
-    sorted[j] = render::kFirstParticleKey + keys[order[j]];
+  std::vector<uint64_t> sorted;
+  std::vector<float> xyz;
+  std::vector<uint16_t> object;
+  {
+    const std::vector<std::vector<uint64_t>> seq = domain_->sequences(world.sets);
+    std::vector<std::pair<uint64_t, std::pair<uint32_t, uint32_t>>> by_key;  // (set, index)
+    for (size_t s = 0; s < seq.size(); ++s)
+      for (size_t i = 0; i < seq[s].size(); ++i)
+        by_key.push_back({uint64_t(s + 1) << 56 | seq[s][i], {uint32_t(s), uint32_t(i)}});
+    std::sort(by_key.begin(), by_key.end());
+    sorted.reserve(by_key.size());
+    xyz.reserve(3 * by_key.size());
+    object.reserve(by_key.size());
+    for (const auto& [key, at] : by_key) {
+      const ParticleSet& set = world.sets[at.first];
+      const Vec3f& x = set.x[at.second];
+      xyz.insert(xyz.end(), {x.x(), x.y(), x.z()});
+      object.push_back(set.object[at.second]);
+      sorted.push_back(render::kFirstParticleKey + key);
+    }
   }
-  render::PreviewLayer layer =
-      renderer.renderLayer({xyz.data(), object.data(), object.size()}, frame.meshes, sorted.data());
+  const std::vector<render::PreviewMesh> meshes = render::previewMeshesFromWorld(world);
+  const render::PreviewParticles particles{xyz.data(), object.data(), object.size()};
   // Process 0 takes each other process's particle pixels in turn, in
-  // chunks of 4 MiB (MPI's int counts; no process holds more than its own
-  // layer and one chunk besides).
-  const double t0 = MPI_Wtime();
+  // chunks of 4 MiB (MPI's int counts; no process holds more than its
+  // own pixels and one chunk besides).
   constexpr int kTag = 11;
   constexpr size_t kChunk = (size_t(4) << 20) / sizeof(render::LayerPixel);
   if (!root()) {
-    const std::vector<render::LayerPixel> px = render::particlePixels(layer);
+    const std::vector<render::LayerPixel> px =
+        renderer.renderParticlePixels(particles, meshes, sorted.data());
+    const double t0 = MPI_Wtime();
     const uint64_t count = px.size();
     MPI_Send(&count, 1, MPI_UINT64_T, 0, kTag, MPI_COMM_WORLD);
     for (size_t first = 0; first < px.size(); first += kChunk)
@@ -137,6 +142,8 @@ render::Image RunSplit::renderPreview(render::PreviewRenderer& renderer, const W
     preview_bytes_ += double(sizeof(count) + px.size() * sizeof(px[0]));
     return {};
   }
+  render::PreviewLayer layer = renderer.renderLayer(particles, meshes, sorted.data());
+  const double t0 = MPI_Wtime();
   std::vector<render::LayerPixel> chunk;
   for (int r = 1; r < size_; ++r) {
     uint64_t count = 0;

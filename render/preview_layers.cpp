@@ -6,18 +6,23 @@
 
 namespace triad::render {
 
-std::vector<LayerPixel> particlePixels(const PreviewLayer& layer) {
-  std::vector<LayerPixel> out;
-  for (size_t i = 0; i < layer.pixels(); ++i) {
-    const uint64_t key = layer.key[i];
-    if (key == kSceneKey || key == kOutlineKey) continue;
+void appendParticlePixels(const uint8_t* rgba, const uint32_t* depth, const uint64_t* key,
+                          size_t count, uint32_t first, std::vector<LayerPixel>& out) {
+  for (size_t i = 0; i < count; ++i) {
+    if (key[i] == kSceneKey || key[i] == kOutlineKey) continue;
     LayerPixel p{};
-    p.key = key;
-    p.index = uint32_t(i);
-    p.depth = layer.depth[i];
-    std::memcpy(p.rgba, &layer.rgba[4 * i], 4);
+    p.key = key[i];
+    p.index = first + uint32_t(i);
+    p.depth = depth[i];
+    std::memcpy(p.rgba, rgba + 4 * i, 4);
     out.push_back(p);
   }
+}
+
+std::vector<LayerPixel> particlePixels(const PreviewLayer& layer) {
+  std::vector<LayerPixel> out;
+  appendParticlePixels(layer.rgba.data(), layer.depth.data(), layer.key.data(), layer.pixels(), 0,
+                       out);
   return out;
 }
 

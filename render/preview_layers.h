@@ -49,6 +49,9 @@ static_assert(sizeof(LayerPixel) == 24, "LayerPixel is sent as bytes");
 // shows what every process draws alike, so these are all another process
 // needs of a layer.
 std::vector<LayerPixel> particlePixels(const PreviewLayer& layer);
+// The same for `count` pixels of a layer from index `first` on, appended to `out`.
+void appendParticlePixels(const uint8_t* rgba, const uint32_t* depth, const uint64_t* key,
+                          size_t count, uint32_t first, std::vector<LayerPixel>& out);
 
 // Takes each pixel whose (depth, key) is less than the layer's at its place.
 // Throws std::runtime_error on an index outside the layer.

@@ -21,6 +21,10 @@ constexpr float kPalette[kPaletteSize][3] = {
     {0.690f, 0.478f, 0.631f}, {1.000f, 0.616f, 0.655f}, {0.612f, 0.459f, 0.373f},
     {0.090f, 0.745f, 0.812f}};
 
+// Particles drawn per batch (below).
+constexpr size_t kParticleBatch = size_t(1) << 16;
+// Draw-order keys go to and come from GL as two 32-bit words, low first.
+static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "keys are passed as two words");
 constexpr float kBackgroundTop[3] = {0.60f, 0.64f, 0.70f};
 constexpr float kBackgroundBottom[3] = {0.84f, 0.85f, 0.86f};
 
@@ -199,6 +203,13 @@ void main() {
 
 std::string litFragment(const char* body) { return std::string("#version 330 core\n") + kShadeGlsl + body; }
 
+void checkKeys(const uint64_t* keys, size_t count) {
+  for (size_t i = 0; i < count; ++i)
+    if (keys[i] < kFirstParticleKey || keys[i] == kOutlineKey || (i > 0 && keys[i] <= keys[i - 1]))
+      throw std::runtime_error("preview layer: particle keys must ascend within (" +
+                               std::to_string(kFirstParticleKey) + ", 2^64 - 1)");
+}
+
 double niceStep(double x) {
   const double p = std::pow(10.0, std::floor(std::log10(x)));
   const double m = x / p;
@@ -224,7 +235,6 @@ struct PreviewRenderer::Impl {
   GLuint fbo = 0, color_rb = 0, depth_rb = 0;
   GLuint key_rb = 0;  // the layers' draw-order keys; made for the first layer
   int fb_w = 0, fb_h = 0, key_w = 0, key_h = 0;
-  std::vector<uint32_t> key_words;
   GLuint particle_prog = 0, mesh_prog = 0, ground_prog = 0, flat_prog = 0, bg_prog = 0;
   std::vector<uint8_t> pixels;
   std::vector<float> scratch;
@@ -315,14 +325,15 @@ struct PreviewRenderer::Impl {
     }
   }
 
-  // Draws the frame into the framebuffer; with `layer`, also each pixel's
-  // draw-order key (particles' from `keys`), and reads back the pixels,
-  // depths and keys into it.
+  // Draws the frame into the framebuffer; with `keys` (the particles'), also
+  // each pixel's draw-order key (read back by readLayerRows), else reads
+  // back the pixels into `pixels`.
   void draw(const PreviewParticles& particles, const std::vector<PreviewMesh>& meshes,
-            const uint64_t* keys, PreviewLayer* layer) {
+            const uint64_t* keys) {
+    const bool keyed = keys != nullptr;
     gl.makeCurrent();
     ensureFramebuffer();
-    attachKeys(layer != nullptr);
+    attachKeys(keyed);
     const PreviewSettings& s = settings;
     const Box& d = s.domain;
     const double ext_x = d.max[0] - d.min[0], ext_z = d.max[2] - d.min[2];
@@ -349,7 +360,7 @@ struct PreviewRenderer::Impl {
     glDisable(GL_CULL_FACE);
     glClearDepth(1.0);
     glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
-    if (layer) {
+    if (keyed) {
       const GLuint none[4] = {0, 0, 0, 0};
       glClearBufferuiv(GL_COLOR, 1, none);
     }
@@ -445,28 +456,40 @@ struct PreviewRenderer::Impl {
       glEnableVertexAttribArray(1);
       glVertexAttribIPointer(1, 1, GL_UNSIGNED_SHORT, 0, nullptr);
       glVertexAttribDivisor(1, 1);
-      if (layer) {
-        // Each key as two words, low first.
-        key_words.resize(2 * particles.count);
-        for (size_t i = 0; i < particles.count; ++i) {
-          key_words[2 * i] = uint32_t(keys[i]);
-          key_words[2 * i + 1] = uint32_t(keys[i] >> 32);
-        }
+      if (keyed) {
+        // Each key as two words, low first: a little-endian uint64.
         glBindBuffer(GL_ARRAY_BUFFER, key_vbo);
-        glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(key_words.size() * sizeof(uint32_t)),
-                     key_words.data(), GL_STREAM_DRAW);
+        glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(particles.count * sizeof(uint64_t)), keys,
+                     GL_STREAM_DRAW);
         glEnableVertexAttribArray(2);
         glVertexAttribIPointer(2, 2, GL_UNSIGNED_INT, 0, nullptr);
         glVertexAttribDivisor(2, 1);
       }
-      glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, GLsizei(particles.count));
+      // In batches, each finished before the next: llvmpipe bins a draw's
+      // triangles per tile before it rasterises them, and a million
+      // particles binned at once held hundreds of MiB.
+      for (size_t first = 0; first < particles.count; first += kParticleBatch) {
+        const GLsizei n = GLsizei(std::min(kParticleBatch, particles.count - first));
+        glBindBuffer(GL_ARRAY_BUFFER, particle_vbo);
+        glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 0,
+                              reinterpret_cast<const void*>(first * 3 * sizeof(float)));
+        glBindBuffer(GL_ARRAY_BUFFER, object_vbo);
+        glVertexAttribIPointer(1, 1, GL_UNSIGNED_SHORT, 0,
+                               reinterpret_cast<const void*>(first * sizeof(uint16_t)));
+        if (keyed) {
+          glBindBuffer(GL_ARRAY_BUFFER, key_vbo);
+          glVertexAttribIPointer(2, 2, GL_UNSIGNED_INT, 0,
+                                 reinterpret_cast<const void*>(first * 2 * sizeof(uint32_t)));
+        }
+        glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, n);
+        glFinish();
+      }
       glVertexAttribDivisor(0, 0);
       glVertexAttribDivisor(1, 0);
       glDisableVertexAttribArray(1);
-      if (layer) {
+      if (keyed) {
         glVertexAttribDivisor(2, 0);
         glDisableVertexAttribArray(2);
-        key_words = {};
       }
     }
 
@@ -499,28 +522,21 @@ struct PreviewRenderer::Impl {
     }
 
     glPixelStorei(GL_PACK_ALIGNMENT, 1);
-    if (!layer) {
+    if (!keyed) {
       pixels.resize(size_t(fb_w) * fb_h * 4);
       glReadPixels(0, 0, fb_w, fb_h, GL_RGBA, GL_UNSIGNED_BYTE, pixels.data());
-      checkGl("preview render");
-      return;
     }
-    layer->width = fb_w;
-    layer->height = fb_h;
-    const size_t n = layer->pixels();
-    layer->rgba.resize(4 * n);
-    layer->depth.resize(n);
-    layer->key.resize(n);
+    checkGl("preview render");
+  }
+
+  // Reads rows y0 .. y0 + rows - 1 of a keyed draw: pixels, depths and keys.
+  void readLayerRows(int y0, int rows, uint8_t* rgba, uint32_t* depth, uint64_t* key) {
     glReadBuffer(GL_COLOR_ATTACHMENT0);
-    glReadPixels(0, 0, fb_w, fb_h, GL_RGBA, GL_UNSIGNED_BYTE, layer->rgba.data());
-    glReadPixels(0, 0, fb_w, fb_h, GL_DEPTH_COMPONENT, GL_UNSIGNED_INT, layer->depth.data());
-    key_words.resize(2 * n);
+    glReadPixels(0, y0, fb_w, rows, GL_RGBA, GL_UNSIGNED_BYTE, rgba);
+    glReadPixels(0, y0, fb_w, rows, GL_DEPTH_COMPONENT, GL_UNSIGNED_INT, depth);
     glReadBuffer(GL_COLOR_ATTACHMENT1);
-    glReadPixels(0, 0, fb_w, fb_h, GL_RG_INTEGER, GL_UNSIGNED_INT, key_words.data());
+    glReadPixels(0, y0, fb_w, rows, GL_RG_INTEGER, GL_UNSIGNED_INT, key);
     glReadBuffer(GL_COLOR_ATTACHMENT0);
-    for (size_t i = 0; i < n; ++i)
-      layer->key[i] = uint64_t(key_words[2 * i + 1]) << 32 | key_words[2 * i];
-    key_words = {};
     checkGl("preview layer");
   }
 
@@ -550,20 +566,43 @@ void PreviewRenderer::setSettings(const PreviewSettings& settings) {
 
 Image PreviewRenderer::render(const PreviewParticles& particles,
                               const std::vector<PreviewMesh>& meshes) {
-  impl_->draw(particles, meshes, nullptr, nullptr);
+  impl_->draw(particles, meshes, nullptr);
   return impl_->finish(impl_->pixels.data());
 }
 
 PreviewLayer PreviewRenderer::renderLayer(const PreviewParticles& particles,
                                           const std::vector<PreviewMesh>& meshes,
                                           const uint64_t* keys) {
-  for (size_t i = 0; i < particles.count; ++i)
-    if (keys[i] < kFirstParticleKey || keys[i] == kOutlineKey || (i > 0 && keys[i] <= keys[i - 1]))
-      throw std::runtime_error("preview layer: particle keys must ascend within (" +
-                               std::to_string(kFirstParticleKey) + ", 2^64 - 1)");
+  checkKeys(keys, particles.count);
+  impl_->draw(particles, meshes, keys);
   PreviewLayer layer;
-  impl_->draw(particles, meshes, keys, &layer);
+  layer.width = impl_->fb_w;
+  layer.height = impl_->fb_h;
+  layer.rgba.resize(4 * layer.pixels());
+  layer.depth.resize(layer.pixels());
+  layer.key.resize(layer.pixels());
+  impl_->readLayerRows(0, layer.height, layer.rgba.data(), layer.depth.data(), layer.key.data());
   return layer;
+}
+
+std::vector<LayerPixel> PreviewRenderer::renderParticlePixels(
+    const PreviewParticles& particles, const std::vector<PreviewMesh>& meshes,
+    const uint64_t* keys) {
+  checkKeys(keys, particles.count);
+  impl_->draw(particles, meshes, keys);
+  // A band of rows at a time: no whole layer beside the framebuffer.
+  const int w = impl_->fb_w, h = impl_->fb_h, band = 64;
+  std::vector<uint8_t> rgba(size_t(w) * band * 4);
+  std::vector<uint32_t> depth(size_t(w) * band);
+  std::vector<uint64_t> key(size_t(w) * band);
+  std::vector<LayerPixel> out;
+  for (int y0 = 0; y0 < h; y0 += band) {
+    const int rows = std::min(band, h - y0);
+    impl_->readLayerRows(y0, rows, rgba.data(), depth.data(), key.data());
+    appendParticlePixels(rgba.data(), depth.data(), key.data(), size_t(w) * size_t(rows),
+                         uint32_t(size_t(w) * size_t(y0)), out);
+  }
+  return out;
 }
 
 Image PreviewRenderer::finish(const PreviewLayer& layer) const {

@@ -90,6 +90,12 @@ class PreviewRenderer {
   // kFirstParticleKey and kOutlineKey; throws std::runtime_error otherwise.
   PreviewLayer renderLayer(const PreviewParticles& particles,
                            const std::vector<PreviewMesh>& meshes, const uint64_t* keys);
+  // The same drawing's particle pixels alone (particlePixels of its layer),
+  // read back a band of rows at a time: what a process sends to be
+  // composited, without holding its whole layer.
+  std::vector<LayerPixel> renderParticlePixels(const PreviewParticles& particles,
+                                               const std::vector<PreviewMesh>& meshes,
+                                               const uint64_t* keys);
   // A layer (composited or not) as the preview render() gives.
   Image finish(const PreviewLayer& layer) const;
 

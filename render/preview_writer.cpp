@@ -30,11 +30,17 @@ PreviewFrame previewFrameFromWorld(const World& world) {
     }
     frame.object.insert(frame.object.end(), set.object.begin(), set.object.end());
   }
-  for (const RigidBody& body : world.bodies)
-    frame.meshes.push_back(previewMesh(worldSurface(body), body.object));
-  for (const ElasticSolid& solid : world.elastics)
-    frame.meshes.push_back(previewMesh(solid.worldSurface(), solid.object));
+  frame.meshes = previewMeshesFromWorld(world);
   return frame;
+}
+
+std::vector<PreviewMesh> previewMeshesFromWorld(const World& world) {
+  std::vector<PreviewMesh> meshes;
+  for (const RigidBody& body : world.bodies)
+    meshes.push_back(previewMesh(worldSurface(body), body.object));
+  for (const ElasticSolid& solid : world.elastics)
+    meshes.push_back(previewMesh(solid.worldSurface(), solid.object));
+  return meshes;
 }
 
 PreviewMesh previewMesh(const TriSurface& surface, int object) {

@@ -15,6 +15,8 @@ namespace triad::render {
 // Every MPM particle of the world (positions and scene object indices), and
 // every rigid body's surface where it is now, in its object's colour.
 PreviewFrame previewFrameFromWorld(const World& world);
+// Its rigid bodies' and elastic solids' surfaces alone.
+std::vector<PreviewMesh> previewMeshesFromWorld(const World& world);
 
 // A world-space surface as a mesh to draw in scene object `object`'s colour.
 PreviewMesh previewMesh(const TriSurface& surface, int object);

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <fstream>
 #include <sstream>
 
@@ -336,6 +337,49 @@ TEST(Render, LayersCompositeToTheWholeFrame) {
   EXPECT_THROW(r.renderLayer({whole.xyz.data(), whole.object.data(), 2}, {}, bad),
                std::runtime_error);
   EXPECT_THROW(r.finish(PreviewLayer{}), std::runtime_error);
+}
+
+// More particles than one draw batch (65,536), split between two layers
+// particle by particle: still the whole frame's bytes. A layer's particle
+// pixels read back in bands are those of the whole layer.
+TEST(Render, LayersCompositeAcrossDrawBatches) {
+  PreviewSettings s = smallSettings();
+  s.particle_radius = 0.01f;
+  PreviewFrame whole;
+  uint32_t state = 12345;
+  auto next = [&]() {
+    state = state * 1664525u + 1013904223u;
+    return float(state >> 8) / float(1 << 24);
+  };
+  const size_t n = 150000;
+  for (size_t i = 0; i < n; ++i) {
+    whole.xyz.insert(whole.xyz.end(), {next(), 0.5f * next(), next()});
+    whole.object.push_back(uint16_t(i % 4));
+  }
+  PreviewRenderer r(s);
+  const Image expected = r.render(whole);
+  PreviewLayer composite;
+  for (int l = 0; l < 2; ++l) {
+    PreviewFrame part;
+    std::vector<uint64_t> keys;
+    for (size_t i = size_t(l); i < n; i += 2) {
+      part.xyz.insert(part.xyz.end(), &whole.xyz[3 * i], &whole.xyz[3 * i] + 3);
+      part.object.push_back(whole.object[i]);
+      keys.push_back(kFirstParticleKey + i);
+    }
+    if (l == 0) {
+      composite = r.renderLayer(part.particles(), {}, keys.data());
+      continue;
+    }
+    const std::vector<LayerPixel> banded =
+        r.renderParticlePixels(part.particles(), {}, keys.data());
+    const std::vector<LayerPixel> all =
+        particlePixels(r.renderLayer(part.particles(), {}, keys.data()));
+    ASSERT_EQ(banded.size(), all.size());
+    EXPECT_EQ(std::memcmp(banded.data(), all.data(), all.size() * sizeof(LayerPixel)), 0);
+    mergePixels(composite, banded.data(), banded.size());
+  }
+  EXPECT_TRUE(r.finish(composite).rgb == expected.rgb);
 }
 
 TEST(Render, RejectsUnusableSettings) {
