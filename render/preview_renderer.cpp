@@ -325,12 +325,11 @@ struct PreviewRenderer::Impl {
     }
   }
 
-  // Draws the frame into the framebuffer; with `keys` (the particles'), also
-  // each pixel's draw-order key (read back by readLayerRows), else reads
-  // back the pixels into `pixels`.
-  void draw(const PreviewParticles& particles, const std::vector<PreviewMesh>& meshes,
+  // Draws the frame into the framebuffer; `keyed`, also each pixel's
+  // draw-order key (the particles' from `keys`; read back by
+  // readLayerRows), else reads back the pixels into `pixels`.
+  void draw(const PreviewParticles& particles, const std::vector<PreviewMesh>& meshes, bool keyed,
             const uint64_t* keys) {
-    const bool keyed = keys != nullptr;
     gl.makeCurrent();
     ensureFramebuffer();
     attachKeys(keyed);
@@ -566,7 +565,7 @@ void PreviewRenderer::setSettings(const PreviewSettings& settings) {
 
 Image PreviewRenderer::render(const PreviewParticles& particles,
                               const std::vector<PreviewMesh>& meshes) {
-  impl_->draw(particles, meshes, nullptr);
+  impl_->draw(particles, meshes, false, nullptr);
   return impl_->finish(impl_->pixels.data());
 }
 
@@ -574,7 +573,7 @@ PreviewLayer PreviewRenderer::renderLayer(const PreviewParticles& particles,
                                           const std::vector<PreviewMesh>& meshes,
                                           const uint64_t* keys) {
   checkKeys(keys, particles.count);
-  impl_->draw(particles, meshes, keys);
+  impl_->draw(particles, meshes, true, keys);
   PreviewLayer layer;
   layer.width = impl_->fb_w;
   layer.height = impl_->fb_h;
@@ -589,7 +588,7 @@ std::vector<LayerPixel> PreviewRenderer::renderParticlePixels(
     const PreviewParticles& particles, const std::vector<PreviewMesh>& meshes,
     const uint64_t* keys) {
   checkKeys(keys, particles.count);
-  impl_->draw(particles, meshes, keys);
+  impl_->draw(particles, meshes, true, keys);
   // A band of rows at a time: no whole layer beside the framebuffer.
   const int w = impl_->fb_w, h = impl_->fb_h, band = 64;
   std::vector<uint8_t> rgba(size_t(w) * band * 4);

@@ -332,6 +332,13 @@ TEST(Render, LayersCompositeToTheWholeFrame) {
   }
   EXPECT_FALSE(r.finish(later).rgb == expected.rgb);
 
+  // A layer without particles (a process that holds none) is the frame's
+  // ground and solids.
+  PreviewFrame solids_only;
+  solids_only.meshes = whole.meshes;
+  EXPECT_TRUE(r.finish(r.renderLayer({}, whole.meshes, nullptr)).rgb == r.render(solids_only).rgb);
+  EXPECT_TRUE(r.renderParticlePixels({}, whole.meshes, nullptr).empty());
+
   // Keys out of order, or outside the particles' range, are refused.
   const uint64_t bad[2] = {5, 5};
   EXPECT_THROW(r.renderLayer({whole.xyz.data(), whole.object.data(), 2}, {}, bad),
