@@ -3,9 +3,14 @@
 #include <openvdb/tools/FastSweeping.h>
 #include <openvdb/tools/ParticlesToLevelSet.h>
 #include <openvdb/tools/Prune.h>
+#include <openvdb/tools/SignedFloodFill.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <memory>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 namespace triad {
@@ -78,8 +83,12 @@ SurfaceSampling surfaceSampling(const World& world, double density_voxel_size, i
   return s;
 }
 
-openvdb::FloatGrid::Ptr particleLevelSet(const World& world, const SurfaceSampling& s, int material,
-                                         double half_width) {
+namespace {
+
+// The spheres rasterised, the distance solved again and cut to the band
+// (particleLevelSet's steps before its leaves are put together).
+openvdb::FloatGrid::Ptr rasterLevelSet(const World& world, const SurfaceSampling& s, int material,
+                                       double half_width) {
   openvdb::FloatGrid::Ptr ls =
       openvdb::createLevelSet<openvdb::FloatGrid>(s.voxel_size, half_width);
   const ParticleSpheres spheres(world, material);
@@ -105,10 +114,93 @@ openvdb::FloatGrid::Ptr particleLevelSet(const World& world, const SurfaceSampli
       it.setValueOff();
     }
   }
-  sdf->tree().root().setBackground(band, /*updateChildNodes=*/true);
-  openvdb::tools::pruneLevelSet(sdf->tree());
-  sdf->setGridClass(openvdb::GRID_LEVEL_SET);
   return sdf;
+}
+
+using Leaf = openvdb::FloatGrid::TreeType::LeafNodeType;
+constexpr size_t kLeafBytes =
+    3 * sizeof(int32_t) + Leaf::NodeMaskType::WORD_COUNT * 8 + Leaf::SIZE * sizeof(float);
+
+}  // namespace
+
+std::vector<unsigned char> levelSetLeaves(const openvdb::FloatGrid& grid,
+                                          const std::function<bool(const Vec3d&)>& keep) {
+  std::vector<unsigned char> out;
+  for (auto leaf = grid.tree().cbeginLeaf(); leaf; ++leaf) {
+    if (leaf->isEmpty()) continue;  // no active value: pruned away
+    const openvdb::Coord o = leaf->origin();
+    const openvdb::Vec3d at = grid.indexToWorld(o);
+    if (!keep(Vec3d(at.x(), at.y(), at.z()))) continue;
+    const size_t k = out.size();
+    out.resize(k + kLeafBytes);
+    unsigned char* p = out.data() + k;
+    const int32_t xyz[3] = {o.x(), o.y(), o.z()};
+    std::memcpy(p, xyz, sizeof(xyz));
+    p += sizeof(xyz);
+    for (openvdb::Index w = 0; w < Leaf::NodeMaskType::WORD_COUNT; ++w, p += 8) {
+      const openvdb::Index64 word = leaf->getValueMask().getWord<openvdb::Index64>(w);
+      std::memcpy(p, &word, 8);
+    }
+    std::memcpy(p, leaf->buffer().data(), Leaf::SIZE * sizeof(float));
+  }
+  return out;
+}
+
+openvdb::FloatGrid::Ptr levelSetFromLeaves(
+    const std::vector<const std::vector<unsigned char>*>& parts, double voxel_size,
+    double half_width) {
+  openvdb::FloatGrid::Ptr ls = openvdb::createLevelSet<openvdb::FloatGrid>(voxel_size, half_width);
+  for (const std::vector<unsigned char>* part : parts) {
+    if (part->size() % kLeafBytes != 0)
+      throw std::runtime_error("level set leaves: " + std::to_string(part->size()) +
+                               " bytes is no whole number of leaves");
+    for (size_t k = 0; k < part->size(); k += kLeafBytes) {
+      const unsigned char* p = part->data() + k;
+      int32_t o[3];
+      std::memcpy(o, p, sizeof(o));
+      p += sizeof(o);
+      auto leaf = std::make_unique<Leaf>(openvdb::Coord(o[0], o[1], o[2]));
+      Leaf::NodeMaskType mask;
+      for (openvdb::Index w = 0; w < Leaf::NodeMaskType::WORD_COUNT; ++w, p += 8)
+        std::memcpy(&mask.getWord<openvdb::Index64>(w), p, 8);
+      leaf->setValueMask(mask);
+      std::memcpy(leaf->buffer().data(), p, Leaf::SIZE * sizeof(float));
+      if (ls->tree().probeConstLeaf(leaf->origin()))
+        throw std::runtime_error("level set leaves: two parts hold the leaf at (" +
+                                 std::to_string(o[0]) + ", " + std::to_string(o[1]) + ", " +
+                                 std::to_string(o[2]) + ")");
+      ls->tree().addLeaf(leaf.release());
+    }
+  }
+  // The signs of the inactive tiles between the leaves, from the leaves.
+  openvdb::tools::signedFloodFill(ls->tree());
+  openvdb::tools::pruneLevelSet(ls->tree());
+  ls->setGridClass(openvdb::GRID_LEVEL_SET);
+  return ls;
+}
+
+openvdb::FloatGrid::Ptr particleLevelSet(const World& world, const SurfaceSampling& s, int material,
+                                         double half_width) {
+  // Put together from its own leaves, as a split run's level set is from
+  // every process's (the tiles between the leaves are made the same way).
+  const openvdb::FloatGrid::Ptr raster = rasterLevelSet(world, s, material, half_width);
+  const std::vector<unsigned char> leaves =
+      levelSetLeaves(*raster, [](const Vec3d&) { return true; });
+  return levelSetFromLeaves({&leaves}, s.voxel_size, half_width);
+}
+
+std::vector<unsigned char> particleLevelSetLeaves(const World& world, const SurfaceSampling& s,
+                                                  int material,
+                                                  const std::function<bool(const Vec3d&)>& owns,
+                                                  double half_width) {
+  return levelSetLeaves(*rasterLevelSet(world, s, material, half_width), owns);
+}
+
+double levelSetReach(const SurfaceSampling& s, double half_width) {
+  // A leaf spans 8 voxels from its origin; each of its values depends on
+  // the zero crossing within the band (and a voxel more), which particles
+  // within a radius of it make.
+  return (double(Leaf::DIM) + half_width + 2.0) * s.voxel_size + 2.0 * s.radius;
 }
 
 }  // namespace triad

@@ -4,7 +4,9 @@
 // meshes surfaces/MATERIAL.FFFF.ply that a renderer shades as water, sand or
 // snow. OpenVDB stays out of this header (particle_level_set.h is the one
 // that includes it, for export/'s own files).
+#include <functional>
 #include <string>
+#include <vector>
 
 #include "sim/solids/collision_particles.h"
 #include "sim/world.h"
@@ -26,6 +28,24 @@ struct SurfaceSampling {
 // Over the particle sets of `material` (an index into the scene's materials),
 // or of every material for -1. `density_voxel_size` bounds the voxel.
 SurfaceSampling surfaceSampling(const World& world, double density_voxel_size, int material = -1);
+
+// A particle level set made in parts, as the processes of a split run make
+// it: each part rasterises the particles within levelSetReach of the
+// region it owns (its own and those of other parts near it), with the
+// whole world's sampling, and keeps the leaf nodes whose origin it owns.
+// Each leaf's values depend only on particles within that reach, so the
+// parts' leaves put together (levelSetFromLeaves) are particleLevelSet of
+// every particle, byte for byte.
+double levelSetReach(const SurfaceSampling& s, double half_width = 3.0);
+std::vector<unsigned char> particleLevelSetLeaves(const World& world, const SurfaceSampling& s,
+                                                  int material,
+                                                  const std::function<bool(const Vec3d&)>& owns,
+                                                  double half_width = 3.0);
+// A level set's parts and the sampling they were made with.
+struct LevelSetParts {
+  SurfaceSampling sampling;
+  std::vector<std::vector<unsigned char>> leaves;
+};
 
 // How a material's surface mesh is made from its level set: the level set
 // is eroded by SurfaceSampling::erosion, smoothed by `smoothing` passes of

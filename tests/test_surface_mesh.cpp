@@ -6,9 +6,12 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <map>
+#include <sstream>
 #include <utility>
 
+#include "export/particle_level_set.h"
 #include "export/particle_surface.h"
 #include "scene_fixture.h"
 
@@ -142,6 +145,74 @@ TEST(SurfaceMesh, SmoothingAndAdaptivityAreTheirs) {
   SurfaceMeshSettings smooth = plain;
   smooth.smoothing = 3;
   EXPECT_GT(area(a), area(materialSurfaceMesh(w, water, smooth)));
+}
+
+// The level set made in parts, as the processes of a split run make it:
+// each part rasterises only the particles within levelSetReach of the
+// region it owns and keeps the leaves whose origin it owns; put together,
+// the leaves are the whole world's level set, byte for byte (its tree's
+// topology and values as OpenVDB writes them). Particles jittered off the
+// lattice, cuts across both materials, and in two directions.
+TEST(SurfaceMesh, LevelSetInPartsIsTheWholeLevelSet) {
+  World w = twoMaterials();
+  uint32_t state = 7;
+  for (ParticleSet& set : w.sets)
+    for (Vec3f& x : set.x)
+      for (int c = 0; c < 3; ++c) {
+        state = state * 1664525u + 1013904223u;
+        x[c] += 0.006f * (float(state >> 8) / float(1 << 24) - 0.5f);
+      }
+  auto bytes = [](const openvdb::FloatGrid& g) {
+    std::ostringstream os(std::ios::binary);
+    g.writeTopology(os);
+    g.writeBuffers(os);
+    return os.str();
+  };
+  for (int material : {-1, materialIndex(w, "water")}) {
+    const SurfaceSampling s = surfaceSampling(w, 0.02, material);
+    const openvdb::FloatGrid::Ptr whole = particleLevelSet(w, s, material);
+    ASSERT_GT(whole->activeVoxelCount(), 10000u);
+    const double reach = levelSetReach(s);
+    // Cuts: x at 0.15 (through the pool), x at 0.33 (through the ball),
+    // and three parts cut at x 0.2 and then y 0.1.
+    using Owner = std::function<int(const Vec3d&)>;
+    const std::vector<std::pair<int, Owner>> splits = {
+        {2, [](const Vec3d& x) { return x.x() < 0.15 ? 0 : 1; }},
+        {2, [](const Vec3d& x) { return x.x() < 0.33 ? 0 : 1; }},
+        {3, [](const Vec3d& x) { return x.x() < 0.2   ? 0
+                                        : x.y() < 0.1 ? 1
+                                                      : 2; }}};
+    for (const auto& [parts, owner] : splits) {
+      std::vector<std::vector<unsigned char>> leaves{size_t(parts)};
+      size_t halo = 0;
+      for (int p = 0; p < parts; ++p) {
+        // The part's particles and those within reach of its region: a
+        // particle is near it when a point within reach along an axis or a
+        // diagonal is the part's (the regions here are boxes).
+        World part = w;
+        for (ParticleSet& set : part.sets) set.x.clear();
+        for (size_t k = 0; k < w.sets.size(); ++k)
+          for (const Vec3f& xf : w.sets[k].x) {
+            const Vec3d x = xf.cast<double>();
+            bool near = false;
+            for (int dx = -1; dx <= 1 && !near; ++dx)
+              for (int dy = -1; dy <= 1 && !near; ++dy)
+                for (int dz = -1; dz <= 1 && !near; ++dz)
+                  near = owner(x + reach * Vec3d(dx, dy, dz)) == p;
+            if (near) part.sets[k].x.push_back(xf);
+            halo += near && owner(x) != p;
+          }
+        leaves[size_t(p)] = particleLevelSetLeaves(part, s, material,
+                                                   [&](const Vec3d& o) { return owner(o) == p; });
+      }
+      std::vector<const std::vector<unsigned char>*> all;
+      for (const auto& l : leaves) all.push_back(&l);
+      const openvdb::FloatGrid::Ptr put = levelSetFromLeaves(all, s.voxel_size);
+      EXPECT_GT(halo, 100u);
+      EXPECT_EQ(put->activeVoxelCount(), whole->activeVoxelCount()) << material;
+      EXPECT_TRUE(bytes(*put) == bytes(*whole)) << material << ", " << parts << " parts";
+    }
+  }
 }
 
 TEST(SurfaceMesh, NoParticlesNoSurface) {
