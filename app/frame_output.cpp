@@ -243,6 +243,12 @@ std::vector<std::pair<int, TriSurface>> writeFrameCaches(const SceneDesc& scene,
                                                          const SharedWrites& shared) {
   std::vector<std::pair<int, TriSurface>> surfaces;
   const bool vtk = scene.output.vtk;
+  // A level set the processes of a split run made in parts.
+  auto made = [&](int material) -> const LevelSetParts* {
+    if (!shared.surfaces) return nullptr;
+    const auto it = shared.surfaces->find(material);
+    return it == shared.surfaces->end() ? nullptr : &it->second;
+  };
   // The VDB voxel, which also bounds the surfaces' level-set voxel.
   const double voxel =
       scene.output.vdb_voxel_size > 0 ? scene.output.vdb_voxel_size : scene.domain.dx;
@@ -261,9 +267,10 @@ std::vector<std::pair<int, TriSurface>> writeFrameCaches(const SceneDesc& scene,
     info.scene_name = scene.name;
     info.voxel_size = voxel;
     info.surface = scene.output.vdb_surface;
+    const LevelSetParts* surface = made(-1);
     if (shared.volumes)
       writeVolumesVdb(volumesPath(out_dir, frame), shared.volumes->sums, shared.volumes->scale,
-                      world, info);
+                      world, info, surface);
     else
       writeVolumesVdb(volumesPath(out_dir, frame), world, info);
   }
@@ -275,7 +282,7 @@ std::vector<std::pair<int, TriSurface>> writeFrameCaches(const SceneDesc& scene,
     settings.adaptivity = scene.output.surface_adaptivity;
     for (int m : surfaceMaterials(scene)) {
       const std::string& name = scene.materials[size_t(m)].name;
-      TriSurface mesh = materialSurfaceMesh(world, m, settings);
+      TriSurface mesh = materialSurfaceMesh(world, m, settings, made(m));
       if (scene.output.surface_mesh) {
         char comment[96];
         std::snprintf(comment, sizeof(comment), "surface of material %s at t=%.9g s",

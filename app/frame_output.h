@@ -2,6 +2,7 @@
 // The files of one frame (particles, volumes, rigid bodies, checkpoint) and
 // finding where a killed run can resume. runScene (app/run_scene.cpp) calls
 // these in order.
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -59,6 +60,9 @@ struct SharedWrites {
   std::shared_ptr<const Volumes> volumes;
   // The preview its processes drew together (null: draw the world's particles).
   std::shared_ptr<const render::Image> preview;
+  // The level sets they made in parts, by material (-1: the volumes'
+  // `surface`; null: make them from the world's particles).
+  std::shared_ptr<const std::map<int, LevelSetParts>> surfaces;
 };
 
 // Writes the frame's cache files that the scene asks for: PLY particles, the

@@ -402,7 +402,16 @@ int runScene(const RunOptions& options_in) {
   // into, and what process 0 gathers of every particle for the rest.
   const bool shared_files = split.active() && split.sharedFiles();
   const bool shared_volumes = split.active() && scene.output.vdb;
-  const RunSplit::Gather gather = split.planOutput(scene.output, composited_previews, rec);
+  const RunSplit::Gather gather = split.planOutput(scene.output, rec);
+  // Split over processes, the level sets every process makes its part of:
+  // each material's that surfaces are made of, and the volumes' (-1).
+  std::vector<int> split_surfaces;
+  if (split.active()) {
+    if (scene.output.surface_mesh ||
+        (scene.output.png && scene.render.style == RenderStyle::Surface))
+      split_surfaces = surfaceMaterials(scene);
+    if (scene.output.vdb && scene.output.vdb_surface) split_surfaces.push_back(-1);
+  }
   const double vdb_voxel =
       scene.output.vdb_voxel_size > 0 ? scene.output.vdb_voxel_size : scene.domain.dx;
   auto writeFrame = [&](int frame) {
@@ -436,6 +445,9 @@ int runScene(const RunOptions& options_in) {
       volumes->sums = split.splatVolumesShared(world, vdb_voxel, volumes->scale);
       shared.volumes = std::move(volumes);
     }
+    if (!split_surfaces.empty())
+      shared.surfaces = std::make_shared<const std::map<int, LevelSetParts>>(
+          split.surfaceParts(world, split_surfaces, vdb_voxel));
     if (composited_previews)
       shared.preview = std::make_shared<const render::Image>(
           split.renderPreview(split.root() ? preview->renderer() : *layers, world));

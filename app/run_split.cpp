@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <tuple>
 
+#include "export/particle_surface.h"
 #include "export/run_record.h"
 #include "render/preview_renderer.h"
 #include "render/preview_writer.h"
@@ -77,7 +78,7 @@ std::shared_ptr<const World> RunSplit::gather(World& world, Gather what) {
   if (!domain_) return nullptr;
   std::vector<ParticleSet> all;
   const bool particles = what != Gather::None;
-  if (particles) domain_->gather(world.sets, all, what == Gather::Positions);
+  if (particles) domain_->gather(world.sets, all);
   if (!root()) return nullptr;
   // Everything else is whole on every process: a copy of this one's world
   // with the gathered particles (or none) in place of its share, which is
@@ -157,6 +158,45 @@ render::Image RunSplit::renderPreview(render::PreviewRenderer& renderer, const W
   }
   preview_seconds_ += MPI_Wtime() - t0;
   return renderer.finish(layer);
+}
+
+std::map<int, LevelSetParts> RunSplit::surfaceParts(const World& world,
+                                                    const std::vector<int>& materials,
+                                                    double voxel) {
+  // The sampling of the whole world: its sets' whole counts.
+  std::vector<uint64_t> counts;
+  for (const ParticleSet& set : world.sets) counts.push_back(set.size());
+  MPI_Allreduce(MPI_IN_PLACE, counts.data(), int(counts.size()), MPI_UINT64_T, MPI_SUM,
+                MPI_COMM_WORLD);
+  std::map<int, SurfaceSampling> sampling;
+  double reach = 0.0;
+  for (const int m : materials) {
+    sampling[m] = surfaceSampling(world, voxel, m, &counts);
+    reach = std::max(reach, levelSetReach(sampling[m]));
+  }
+  // This process's particles and the others' within reach: positions alone.
+  World near;
+  {
+    std::vector<std::vector<Vec3f>> halo = domain_->haloPositions(world.sets, reach);
+    for (size_t s = 0; s < world.sets.size(); ++s) {
+      near.sets.push_back(world.sets[s].withoutParticles());
+      std::vector<Vec3f>& x = near.sets.back().x;
+      x.reserve(world.sets[s].size() + halo[s].size());
+      x.insert(x.end(), world.sets[s].x.begin(), world.sets[s].x.end());
+      x.insert(x.end(), halo[s].begin(), halo[s].end());
+      halo[s] = {};
+    }
+  }
+  std::map<int, LevelSetParts> parts;
+  for (const int m : materials) {
+    const std::vector<unsigned char> leaves = particleLevelSetLeaves(
+        near, sampling[m], m, [&](const Vec3d& o) { return domain_->ownsPoint(o.cast<float>()); });
+    std::vector<std::vector<unsigned char>> all = domain_->gatherBytes(leaves);
+    if (!root()) continue;
+    parts[m].sampling = sampling[m];
+    parts[m].leaves = std::move(all);
+  }
+  return parts;
 }
 
 double RunSplit::sum(double value) {
@@ -257,6 +297,9 @@ std::shared_ptr<const World> RunSplit::gather(World&, Gather) {
 render::Image RunSplit::renderPreview(render::PreviewRenderer&, const World&) {
   return {};
 }
+std::map<int, LevelSetParts> RunSplit::surfaceParts(const World&, const std::vector<int>&, double) {
+  return {};
+}
 double RunSplit::sum(double value) {
   return value;
 }
@@ -271,31 +314,24 @@ void RunSplit::abort(int code) {
 
 #endif
 
-RunSplit::Gather RunSplit::planOutput(const OutputDesc& o, bool composited_previews,
-                                      RunRecord& rec) const {
+RunSplit::Gather RunSplit::planOutput(const OutputDesc& o, RunRecord& rec) const {
   if (!active()) return Gather::None;
   const bool together = shared_files_;
   const bool whole = !together && (o.ply || o.vtk || o.checkpoints);
-  const bool drawn = o.png && !composited_previews;
-  const bool positions = drawn || o.surface_mesh || (o.vdb && o.vdb_surface);
-  const Gather gather = whole ? Gather::Whole : positions ? Gather::Positions : Gather::None;
   for (const auto& [on, each, name] : {std::tuple{o.ply, together, "particles"},
                                        {o.vdb, true, "volumes"},
+                                       {o.vdb && o.vdb_surface, true, "volumes' surface"},
+                                       {o.surface_mesh, true, "surfaces"},
                                        {o.vtk, together, "vtk particles"},
                                        {o.checkpoints, together, "checkpoints"},
-                                       {o.png, composited_previews, "previews"}})
+                                       {o.png, true, "previews"}})
     if (on && each) rec.mpi_files_together.push_back(name);
-  for (const auto& [on, name] : {std::pair{drawn, "previews"},
-                                 {o.surface_mesh, "surfaces"},
-                                 {o.vdb && o.vdb_surface, "volumes' surface"},
-                                 {o.vtk && !together, "vtk particles"},
+  for (const auto& [on, name] : {std::pair{o.vtk && !together, "vtk particles"},
                                  {o.ply && !together, "particles"},
                                  {o.checkpoints && !together, "checkpoints"}})
     if (on) rec.mpi_gathered_for.push_back(name);
-  rec.mpi_gathered = gather == Gather::Whole       ? "every attribute"
-                     : gather == Gather::Positions ? "positions and objects"
-                                                   : "nothing";
-  return gather;
+  rec.mpi_gathered = whole ? "every attribute" : "nothing";
+  return whole ? Gather::Whole : Gather::None;
 }
 
 std::string RunSplit::unsupported(const World& world) const {

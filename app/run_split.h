@@ -4,6 +4,7 @@
 // pipeline reads the same either way. Process 0 writes the cache; the
 // others simulate their share and send their particles to it each frame.
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -22,6 +23,7 @@ struct StepRecord;
 struct VoxelSum;
 struct VolumeScale;
 class MpiDomain;
+struct LevelSetParts;
 namespace render {
 class PreviewRenderer;
 struct Image;
@@ -65,18 +67,16 @@ class RunSplit {
   void rebalance(World& world);
   // What process 0 needs of every particle for a frame's files.
   enum class Gather {
-    None,       // nothing: a copy of its world without particles
-    Positions,  // positions and objects (previews, surfaces)
-    Whole       // every attribute
+    None,  // nothing: a copy of its world without particles
+    Whole  // every attribute
   };
   // What process 0 gathers of every particle for the frames' files that
-  // `output` asks for: surfaces, and previews of surfaces, read positions alone; VTK
-  // files, and a particle cache or checkpoint that process 0 writes alone
-  // (sharedFiles() false), every attribute. The volumes' density and
-  // velocity each process splats itself. Says so in `rec`'s mpi fields.
-  // `composited_previews`: previews are drawn by renderPreview(), which
-  // needs no gather.
-  Gather planOutput(const OutputDesc& output, bool composited_previews, RunRecord& rec) const;
+  // `output` asks for: every attribute for VTK files, a particle cache or
+  // checkpoint that process 0 writes alone (sharedFiles() false); else
+  // nothing. The volumes' density and velocity each process splats itself,
+  // previews each process draws (renderPreview), level sets and surfaces
+  // each makes in parts (surfaceParts). Says so in `rec`'s mpi fields.
+  Gather planOutput(const OutputDesc& output, RunRecord& rec) const;
   // The world with every process's particles, on process 0 (null on the
   // others). The world's own particles are set aside while it is copied,
   // not copied.
@@ -117,6 +117,15 @@ class RunSplit {
   // each sends only the pixels where its particles show. On process 0;
   // empty on the others.
   render::Image renderPreview(render::PreviewRenderer& renderer, const World& world);
+  // Collective: the particle level sets of `materials` (scene material
+  // indices; -1: every material) on voxels bounded by `voxel`, made in parts
+  // (export/particle_surface.h): each process from its own particles and
+  // the other processes' within reach of its region, keeping the leaves it
+  // owns. On process 0 every process's leaves (empty on the others): put
+  // together, they are one process's level sets, byte for byte, and no
+  // process holds another's particles beyond that reach.
+  std::map<int, LevelSetParts> surfaceParts(const World& world, const std::vector<int>& materials,
+                                            double voxel);
   // Sums over processes.
   double sum(double value);
   // The largest pending signal of any process (0: none).

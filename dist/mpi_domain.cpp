@@ -7,6 +7,7 @@
 #include <numeric>
 #include <stdexcept>
 #include <thread>
+#include <unordered_map>
 
 #include "sim/mpm/particles.h"
 
@@ -669,6 +670,90 @@ bool MpiDomain::wholeIndex(const std::vector<ParticleSet>& sets,
   return true;
 }
 
+std::vector<std::vector<Vec3f>> MpiDomain::haloPositions(const std::vector<ParticleSet>& sets,
+                                                         double reach) {
+  // The processes near each particle block, found once per block: points
+  // at most a block apart across the block's box grown by the reach meet
+  // every block that the grown box meets.
+  const double block = double(kBlockSize) / double(params_.inv_dx);
+  const double eps = 1e-4 * block;  // rounding at a block's faces: a little more, never less
+  std::unordered_map<uint64_t, std::vector<int>> near;
+  std::vector<std::vector<unsigned char>> out(static_cast<size_t>(size_));
+  for (size_t s = 0; s < sets.size(); ++s) {
+    for (const Vec3f& x : sets[s].x) {
+      const uint64_t key = keyOf(x);
+      auto it = near.find(key);
+      if (it == near.end()) {
+        const Vec3i b = unpackBlock(key);
+        Vec3d lo, width;
+        int steps[3];
+        for (int d = 0; d < 3; ++d) {
+          lo[d] = double(params_.shifted_origin[d]) + double(b[d]) * block - reach - eps;
+          width[d] = block + 2.0 * (reach + eps);
+          steps[d] = std::max(1, int(std::ceil(width[d] / block)));
+        }
+        std::vector<uint8_t> seen(size_t(size_), 0);
+        for (int i = 0; i <= steps[0]; ++i)
+          for (int j = 0; j <= steps[1]; ++j)
+            for (int k = 0; k <= steps[2]; ++k) {
+              const Vec3d at = lo + Vec3d(i * width[0] / steps[0], j * width[1] / steps[1],
+                                          k * width[2] / steps[2]);
+              seen[size_t(ownerOf(keyOf(at.cast<float>())))] = 1;
+            }
+        std::vector<int> procs;
+        for (int r = 0; r < size_; ++r)
+          if (seen[size_t(r)] && r != rank_) procs.push_back(r);
+        it = near.emplace(key, std::move(procs)).first;
+      }
+      for (const int r : it->second) {
+        put(out[size_t(r)], uint32_t(s));
+        put(out[size_t(r)], x);
+      }
+    }
+  }
+  const std::vector<std::vector<unsigned char>> in = exchange(out);
+  std::vector<std::vector<Vec3f>> halo(sets.size());
+  for (const std::vector<unsigned char>& bytes : in)
+    for (const unsigned char* p = bytes.data(); p < bytes.data() + bytes.size();) {
+      const uint32_t s = take<uint32_t>(p);
+      const Vec3f x = take<Vec3f>(p);
+      if (s >= halo.size()) throw std::runtime_error("halo positions: a set that is not here");
+      halo[s].push_back(x);
+    }
+  return halo;
+}
+
+std::vector<std::vector<unsigned char>> MpiDomain::gatherBytes(
+    const std::vector<unsigned char>& mine) {
+  const double t0 = MPI_Wtime();
+  constexpr int kTag = 12;
+  constexpr size_t kChunk = size_t(4) << 20;
+  std::vector<std::vector<unsigned char>> all;
+  if (rank_ != 0) {
+    const uint64_t count = mine.size();
+    check(MPI_Send(&count, 1, MPI_UINT64_T, 0, kTag, comm_), "Send");
+    for (size_t first = 0; first < mine.size(); first += kChunk)
+      check(MPI_Send(mine.data() + first, int(std::min(kChunk, mine.size() - first)), MPI_BYTE, 0,
+                     kTag, comm_),
+            "Send");
+    bytes_sent_ += sizeof(count) + mine.size();
+  } else {
+    all.resize(size_t(size_));
+    all[0] = mine;
+    for (int r = 1; r < size_; ++r) {
+      uint64_t count = 0;
+      check(MPI_Recv(&count, 1, MPI_UINT64_T, r, kTag, comm_, MPI_STATUS_IGNORE), "Recv");
+      all[size_t(r)].resize(size_t(count));
+      for (size_t first = 0; first < count; first += kChunk)
+        check(MPI_Recv(all[size_t(r)].data() + first, int(std::min<size_t>(kChunk, count - first)),
+                       MPI_BYTE, r, kTag, comm_, MPI_STATUS_IGNORE),
+              "Recv");
+    }
+  }
+  comm_seconds_ += MPI_Wtime() - t0;
+  return all;
+}
+
 std::vector<std::vector<uint64_t>> MpiDomain::sequences(
     const std::vector<ParticleSet>& sets) const {
   std::vector<std::vector<uint64_t>> out(sets.size());
@@ -688,31 +773,20 @@ double MpiDomain::sum(double value) {
   return value;
 }
 
-void MpiDomain::gather(const std::vector<ParticleSet>& sets, std::vector<ParticleSet>& all,
-                       bool positions) {
+void MpiDomain::gather(const std::vector<ParticleSet>& sets, std::vector<ParticleSet>& all) {
   const double t0 = MPI_Wtime();
   constexpr int kTag = 7;
   all = emptyLike(sets);
   for (size_t s = 0; s < sets.size(); ++s) {
     const ParticleSet& set = sets[s];
-    // With `positions`, a particle's position and object alone.
-    const size_t record =
-        positions ? sizeof(Vec3f) + sizeof(uint16_t) + sizeof(uint64_t) : recordBytes(set);
+    const size_t record = recordBytes(set);
     const size_t per_chunk = std::max<size_t>(1, gather_chunk_ / record);
     const bool numbered = !seq_fresh_ && s < seq_.size() && seq_[s].size() == set.size();
     std::vector<unsigned char> chunk;
     auto pack = [&](size_t first, size_t n) {
       chunk.clear();
-      for (size_t i = first; i < first + n; ++i) {
-        const uint64_t seq = numbered ? seq_[s][i] : uint64_t(rank_) << 40 | i;
-        if (!positions) {
-          packParticle(set, i, seq, chunk);
-          continue;
-        }
-        put(chunk, set.x[i]);
-        put(chunk, set.object[i]);
-        put(chunk, seq);
-      }
+      for (size_t i = first; i < first + n; ++i)
+        packParticle(set, i, numbered ? seq_[s][i] : uint64_t(rank_) << 40 | i, chunk);
     };
     uint64_t count = set.size();
     std::vector<uint64_t> counts(rank_ == 0 ? size_t(size_) : 0);
@@ -729,12 +803,7 @@ void MpiDomain::gather(const std::vector<ParticleSet>& sets, std::vector<Particl
     ParticleSet& out = all[s];
     uint64_t total = 0;
     for (const uint64_t c : counts) total += c;
-    if (positions) {
-      out.x.reserve(total);
-      out.object.reserve(total);
-    } else {
-      out.reserve(total);
-    }
+    out.reserve(total);
     std::vector<uint64_t> seq;
     seq.reserve(total);
     for (int r = 0; r < size_; ++r)
@@ -749,31 +818,11 @@ void MpiDomain::gather(const std::vector<ParticleSet>& sets, std::vector<Particl
                 "Recv");
         }
         const unsigned char* p = chunk.data();
-        for (size_t j = 0; j < n; ++j) {
-          if (!positions) {
-            unpackParticle(out, seq, p);
-            continue;
-          }
-          out.x.push_back(take<Vec3f>(p));
-          out.object.push_back(take<uint16_t>(p));
-          seq.push_back(take<uint64_t>(p));
-        }
+        for (size_t j = 0; j < n; ++j) unpackParticle(out, seq, p);
       }
     // In the order one process would hold them in: its checkpoints and
     // volumes are then the same bytes.
-    if (!positions) {
-      sortSet(out, seq);
-      continue;
-    }
-    const std::vector<uint32_t> src = ascending(seq);
-    std::vector<Vec3f> x(src.size());
-    std::vector<uint16_t> object(src.size());
-    for (size_t i = 0; i < src.size(); ++i) {
-      x[i] = out.x[src[i]];
-      object[i] = out.object[src[i]];
-    }
-    out.x = std::move(x);
-    out.object = std::move(object);
+    sortSet(out, seq);
   }
   comm_seconds_ += MPI_Wtime() - t0;
 }

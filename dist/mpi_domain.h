@@ -47,11 +47,16 @@ class MpiDomain final : public DomainExchange, public ParticleShare {
   void followWork() { by_work_ = true; }
   // Every process's particles, set by set in the order one process holds
   // them in, on process 0 (`all` holds the sets' descriptions and no
-  // particles on the others), sent in chunks of 4 MiB. With `positions`,
-  // only their positions and objects (what previews and surfaces use).
-  void gather(const std::vector<ParticleSet>& sets, std::vector<ParticleSet>& all,
-              bool positions = false);
+  // particles on the others), sent in chunks of 4 MiB.
+  void gather(const std::vector<ParticleSet>& sets, std::vector<ParticleSet>& all);
   double sum(double value);
+  // Collective: per set, the positions of other processes' particles that
+  // lie within `reach` (m, along each axis) of a point this process owns
+  // (ownsPoint), and maybe a few more (a block's worth).
+  std::vector<std::vector<Vec3f>> haloPositions(const std::vector<ParticleSet>& sets, double reach);
+  // Collective: `mine` from every process, on process 0 (empty on the
+  // others), in process order, sent in chunks of 4 MiB.
+  std::vector<std::vector<unsigned char>> gatherBytes(const std::vector<unsigned char>& mine);
   // Per set, each particle's sequence number: gather() puts the particles
   // of each set in ascending order of these. Below 2^56.
   std::vector<std::vector<uint64_t>> sequences(const std::vector<ParticleSet>& sets) const;

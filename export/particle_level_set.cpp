@@ -68,11 +68,15 @@ class ParticleSpheres {
 
 }  // namespace
 
-SurfaceSampling surfaceSampling(const World& world, double density_voxel_size, int material) {
+SurfaceSampling surfaceSampling(const World& world, double density_voxel_size, int material,
+                                const std::vector<uint64_t>* whole_counts) {
   SurfaceSampling s;
   double r_min = 0.0, erosion = 0.0;
-  for (const ParticleSet& set : world.sets) {
-    if (!wanted(set, material)) continue;
+  for (size_t k = 0; k < world.sets.size(); ++k) {
+    const ParticleSet& set = world.sets[k];
+    const bool any =
+        whole_counts ? k < whole_counts->size() && (*whole_counts)[k] > 0 : set.size() > 0;
+    if (!any || (material >= 0 && set.material != material)) continue;
     const double r = setRadius(set), e = kFaceBump * std::cbrt(double(set.volume));
     s.radius = std::max(s.radius, r);
     r_min = r_min > 0.0 ? std::min(r_min, r) : r;
@@ -177,6 +181,12 @@ openvdb::FloatGrid::Ptr levelSetFromLeaves(
   openvdb::tools::pruneLevelSet(ls->tree());
   ls->setGridClass(openvdb::GRID_LEVEL_SET);
   return ls;
+}
+
+openvdb::FloatGrid::Ptr levelSetFromParts(const LevelSetParts& parts, double half_width) {
+  std::vector<const std::vector<unsigned char>*> all;
+  for (const std::vector<unsigned char>& leaves : parts.leaves) all.push_back(&leaves);
+  return levelSetFromLeaves(all, parts.sampling.voxel_size, half_width);
 }
 
 openvdb::FloatGrid::Ptr particleLevelSet(const World& world, const SurfaceSampling& s, int material,

@@ -32,6 +32,8 @@ std::vector<unsigned char> levelSetLeaves(const openvdb::FloatGrid& grid,
 // voxels) of the leaves of `parts` (levelSetLeaves'; no two holding the same
 // leaf), the signs of the tiles between them flood-filled from them.
 // Throws std::runtime_error on malformed parts.
+// The same of a level set made in parts (particle_surface.h).
+openvdb::FloatGrid::Ptr levelSetFromParts(const LevelSetParts& parts, double half_width = 3.0);
 openvdb::FloatGrid::Ptr levelSetFromLeaves(
     const std::vector<const std::vector<unsigned char>*>& parts, double voxel_size,
     double half_width = 3.0);

@@ -10,9 +10,10 @@
 namespace triad {
 
 TriSurface materialSurfaceMesh(const World& world, int material,
-                               const SurfaceMeshSettings& settings) {
+                               const SurfaceMeshSettings& settings, const LevelSetParts* made) {
   TriSurface out;
-  const SurfaceSampling s = surfaceSampling(world, settings.voxel_size, material);
+  const SurfaceSampling s =
+      made ? made->sampling : surfaceSampling(world, settings.voxel_size, material);
   if (!(s.radius > 0.0)) return out;
 
   // Level set of the spheres, eroded onto the material's faces, smoothed.
@@ -20,7 +21,8 @@ TriSurface materialSurfaceMesh(const World& world, int material,
   // kept a distance: the erosion is a shift of the band's values and the
   // smoothing a plain filter of them (LevelSetFilter would renormalise the
   // band after each, which costs more than building it).
-  openvdb::FloatGrid::Ptr ls = particleLevelSet(world, s, material);
+  openvdb::FloatGrid::Ptr ls =
+      made ? levelSetFromParts(*made) : particleLevelSet(world, s, material);
   const float erosion = float(s.erosion);
   for (auto it = ls->beginValueOn(); it; ++it) it.setValue(*it + erosion);
   if (settings.smoothing > 0) {

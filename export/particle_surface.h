@@ -4,6 +4,7 @@
 // meshes surfaces/MATERIAL.FFFF.ply that a renderer shades as water, sand or
 // snow. OpenVDB stays out of this header (particle_level_set.h is the one
 // that includes it, for export/'s own files).
+#include <cstdint>
 #include <functional>
 #include <string>
 #include <vector>
@@ -27,7 +28,10 @@ struct SurfaceSampling {
 };
 // Over the particle sets of `material` (an index into the scene's materials),
 // or of every material for -1. `density_voxel_size` bounds the voxel.
-SurfaceSampling surfaceSampling(const World& world, double density_voxel_size, int material = -1);
+// `whole_counts`: each set's particle count in the whole world, where the
+// world holds a share of them (a split run), else the sets' own.
+SurfaceSampling surfaceSampling(const World& world, double density_voxel_size, int material = -1,
+                                const std::vector<uint64_t>* whole_counts = nullptr);
 
 // A particle level set made in parts, as the processes of a split run make
 // it: each part rasterises the particles within levelSetReach of the
@@ -61,7 +65,10 @@ struct SurfaceMeshSettings {
 // The closed, outward-wound (counter-clockwise seen from outside) triangle
 // surface of `material`'s particles, world space. Empty when the material
 // has no particles.
+// `made`: its level set made in parts (a split run's processes), in place
+// of the world's particles.
 TriSurface materialSurfaceMesh(const World& world, int material,
-                               const SurfaceMeshSettings& settings);
+                               const SurfaceMeshSettings& settings,
+                               const LevelSetParts* made = nullptr);
 
 }  // namespace triad

@@ -193,7 +193,8 @@ void writeVolumesVdb(const std::string& path, const World& world, const VdbFrame
 }
 
 void writeVolumesVdb(const std::string& path, const std::vector<VoxelSum>& sums,
-                     const VolumeScale& scale, const World& world, const VdbFrameInfo& info) {
+                     const VolumeScale& scale, const World& world, const VdbFrameInfo& info,
+                     const LevelSetParts* made) {
   if (!(info.voxel_size > 0.0)) throw std::runtime_error(path + ": voxel size must be positive");
   initOpenVdb();
 
@@ -214,8 +215,9 @@ void writeVolumesVdb(const std::string& path, const std::vector<VoxelSum>& sums,
 
   // The optional level set of the material's surface.
   if (info.surface) {
-    const SurfaceSampling s = surfaceSampling(world, info.voxel_size);
-    FloatGrid::Ptr surface = particleLevelSet(world, s, /*material=*/-1);
+    const SurfaceSampling s = made ? made->sampling : surfaceSampling(world, info.voxel_size);
+    FloatGrid::Ptr surface =
+        made ? levelSetFromParts(*made) : particleLevelSet(world, s, /*material=*/-1);
     surface->setName("surface");
     addFrameMetadata(*surface, info, "m");
     surface->insertMeta("particle_radius", openvdb::DoubleMetadata(s.radius));

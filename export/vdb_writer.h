@@ -65,9 +65,11 @@ void addVolumeSums(std::vector<VoxelSum>& sums);
 // `path`. Throws std::runtime_error naming the file.
 void writeVolumesVdb(const std::string& path, const World& world, const VdbFrameInfo& info);
 // The same from sums splatted already (by the processes of a split run);
-// `world` serves the level set `surface` only.
+// `world` serves the level set `surface` only, unless `surface` holds it
+// made in parts (by the same processes).
 void writeVolumesVdb(const std::string& path, const std::vector<VoxelSum>& sums,
-                     const VolumeScale& scale, const World& world, const VdbFrameInfo& info);
+                     const VolumeScale& scale, const World& world, const VdbFrameInfo& info,
+                     const LevelSetParts* surface = nullptr);
 
 // Opens a volume cache with OpenVDB and checks that it holds the grids
 // `density` and `vel`. Returns an empty string if so, else what is wrong.

@@ -289,6 +289,49 @@ TEST_F(Mpi, PreviewsAreCompositedFromEveryProcessToOneProcesssBytes) {
   }
 }
 
+// Level sets and surfaces under two and three processes: each process
+// rasterises its own particles and the others' within reach of its region
+// and keeps the leaves it owns; process 0 puts the leaves together. The
+// volumes (with their level set `surface`), each material's surface mesh
+// and the previews drawn from those meshes are the single process's bytes,
+// and no process gathers particles.
+TEST_F(Mpi, SurfacesAreMadeInPartsToOneProcesssBytes) {
+  const fs::path dir = test::tempDir("surfaces");
+  const int frames = 3;
+  json j = everyMaterial(frames);
+  j["output"] = {{"vdb", true},  {"vdb_surface", true}, {"surface_mesh", true},
+                 {"ply", false}, {"png", true},         {"checkpoints", false}};
+  j["render"] = {{"resolution", {160, 90}}, {"style", "surface"}};
+  const std::string scene = test::writeScene(dir, j);
+  const test::CliResult one = run(dir, scene, dir / "one", "OMP_NUM_THREADS=1");
+  ASSERT_EQ(one.status, 0) << one.err;
+  auto file = [](const fs::path& out, const char* folder, const char* stem, int f,
+                 const char* ext) {
+    char name[64];
+    std::snprintf(name, sizeof(name), "%s.%04d.%s", stem, f, ext);
+    return out / folder / name;
+  };
+  for (int n : {2, 3}) {
+    const fs::path out = dir / ("np" + std::to_string(n));
+    const test::CliResult r = run(dir, scene, out, mpirun(n));
+    ASSERT_EQ(r.status, 0) << r.err;
+    const json mpi = runJson(out)["mpi"];
+    EXPECT_EQ(mpi["gathered"], "nothing") << mpi.dump();
+    EXPECT_EQ(mpi["written_by_every_process"],
+              json::array({"volumes", "volumes' surface", "surfaces", "previews"}));
+    for (int f = 0; f <= frames; ++f) {
+      EXPECT_TRUE(sameFile(frameVdb(out, f), frameVdb(dir / "one", f))) << n << " frame " << f;
+      for (const char* m : {"water", "sand", "jelly", "snow"})
+        EXPECT_TRUE(sameFile(file(out, "surfaces", m, f, "ply"),
+                             file(dir / "one", "surfaces", m, f, "ply")))
+            << n << " " << m << " frame " << f;
+      EXPECT_TRUE(sameFile(file(out, "preview", "preview", f, "png"),
+                           file(dir / "one", "preview", "preview", f, "png")))
+          << n << " frame " << f;
+    }
+  }
+}
+
 // No process builds the whole world: each makes only its share of the
 // particles (their positions alone are made whole, 12 bytes each), and the
 // run is the same bytes as when each built everything and kept its share.

@@ -183,7 +183,7 @@ TEST(SurfaceMesh, LevelSetInPartsIsTheWholeLevelSet) {
                                         : x.y() < 0.1 ? 1
                                                       : 2; }}};
     for (const auto& [parts, owner] : splits) {
-      std::vector<std::vector<unsigned char>> leaves{size_t(parts)};
+      std::vector<std::vector<unsigned char>> leaves(static_cast<size_t>(parts));
       size_t halo = 0;
       for (int p = 0; p < parts; ++p) {
         // The part's particles and those within reach of its region: a
