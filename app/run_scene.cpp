@@ -423,6 +423,8 @@ int runScene(const RunOptions& options_in) {
     // with the frame's other files.
     SharedWrites shared;
     RunSplit::SharedParticles written;
+    // The checkpoint holds the whole world's solver state.
+    if (split.active() && scene.output.checkpoints) solver.gatherState();
     try {
       if (shared_files && (scene.output.ply || scene.output.vtk))
         split.writeParticlesShared(scene.output.ply ? particlesPath(out_dir, frame) : "",

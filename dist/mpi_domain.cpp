@@ -221,6 +221,7 @@ void MpiDomain::cutAt(const std::vector<uint64_t>& pairs, const std::vector<doub
     cut[size_t(r)] = c < blocks ? pairs[2 * c] : UINT64_MAX;
     cut[size_t(r)] = std::max(cut[size_t(r)], cut[size_t(r - 1)]);
   }
+  if (cut != cut_) ++cuts_;
   cut_ = cut;
 }
 
@@ -668,6 +669,16 @@ bool MpiDomain::wholeIndex(const std::vector<ParticleSet>& sets,
     }
   }
   return true;
+}
+
+std::vector<std::vector<unsigned char>> MpiDomain::exchangeBytes(
+    const std::vector<std::vector<unsigned char>>& out) {
+  if (out.size() == size_t(size_)) return exchange(out);
+  if (out.size() > size_t(size_))
+    throw std::runtime_error("exchange: bytes for a process that does not exist");
+  std::vector<std::vector<unsigned char>> all(out);  // those left out send nothing
+  all.resize(size_t(size_));
+  return exchange(all);
 }
 
 std::vector<std::vector<Vec3f>> MpiDomain::haloPositions(const std::vector<ParticleSet>& sets,

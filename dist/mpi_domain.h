@@ -89,6 +89,10 @@ class MpiDomain final : public DomainExchange, public ParticleShare {
   bool ownsPoint(const Vec3f& x) const override { return owns(keyOf(x)); }
   std::vector<unsigned char> allGather(const std::vector<unsigned char>& mine) override;
   void minGhosts(const GridLayout& layout, std::vector<float>& per_node) override;
+  int ownerOf(uint64_t key) const override;
+  uint64_t cuts() const override { return cuts_; }
+  std::vector<std::vector<unsigned char>> exchangeBytes(
+      const std::vector<std::vector<unsigned char>>& out) override;
 
  private:
   uint64_t keyOf(const Vec3f& x) const;
@@ -97,7 +101,6 @@ class MpiDomain final : public DomainExchange, public ParticleShare {
   // Cuts so that process r's keys start where the running count of `pairs`
   // comes nearest target[r].
   void cutAt(const std::vector<uint64_t>& pairs, const std::vector<double>& target);
-  int ownerOf(uint64_t key) const;
   // Sends the nodes of blocks send[r] of `per_node` (64 per block) to each
   // process r, and combines what each sent here into blocks receive[r].
   template <typename T, typename F>
@@ -123,6 +126,7 @@ class MpiDomain final : public DomainExchange, public ParticleShare {
   int rank_ = 0, size_ = 1;
   TransferParams params_;
   std::vector<uint64_t> cut_;  // size_ + 1 entries: process r owns keys [cut_[r], cut_[r + 1])
+  uint64_t cuts_ = 0;          // cuts made so far
   // Grid blocks this process scattered into that others own (per owner), and
   // blocks it owns that others scattered into (per process): their keys and
   // their indices in this step's layout.

@@ -235,6 +235,10 @@ double Solver::wakeMargin() const {
   return 2.0 * kBlockSize * world_.scene.domain.dx;
 }
 
+void Solver::gatherState() {
+  if (sleep_ && domain_) sleep_->gatherState(*domain_);
+}
+
 WakeBox Solver::wakeBox(const RigidBody& b) const {
   const double margin = wakeMargin();
   const Vec3d r = Vec3d::Constant(double(b.radius) + margin);
@@ -252,11 +256,22 @@ void Solver::sleepBodies() {
   for (const RigidBody& b : world_.bodies)
     if (b.animated || b.deform) others.push_back(wakeBox(b));
   for (const ElasticSolid& e : world_.elastics) others.push_back(elasticBox(e));
+  // Whether the material round each body is calm: split over processes,
+  // each knows its own blocks, and a body is calm where all are.
+  std::vector<double> unrest(world_.bodies.size(), 0.0);
+  bool any = false;
+  for (size_t k = 0; k < world_.bodies.size(); ++k) {
+    const RigidBody& b = world_.bodies[k];
+    if (b.fixed || still[k] < sleep_->delay()) continue;
+    any = true;
+    unrest[k] = sleep_->calmWithin(wakeBox(b), params_.shifted_origin, params_.inv_dx) ? 0.0 : 1.0;
+  }
+  if (domain_ && any) domain_->maxOverProcesses(unrest);
   for (size_t k = 0; k < world_.bodies.size(); ++k) {
     const RigidBody& b = world_.bodies[k];
     if (b.fixed || still[k] < sleep_->delay()) continue;
     const WakeBox box = wakeBox(b);
-    if (!sleep_->calmWithin(box, params_.shifted_origin, params_.inv_dx)) continue;
+    if (unrest[k] > 0.0) continue;
     bool alone = true;
     for (const WakeBox& o : others) alone = alone && !overlaps(box, o);
     for (size_t j = 0; j < world_.bodies.size() && alone; ++j) {

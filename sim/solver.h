@@ -80,6 +80,10 @@ class Solver {
   void setDomain(DomainExchange* domain);
   const TransferParams& transferParams() const { return params_; }
 
+  // Split over processes: gathers what state() must hold of every process
+  // (the sleeping blocks' still times). Collective; call before state()
+  // goes into a checkpoint.
+  void gatherState();
   SolverState state() const {
     return {max_speed_, max_stiffness_scale_, sleep_ ? sleep_->state() : SleepState{}};
   }

@@ -934,15 +934,27 @@ TEST_F(Mpi, SleepingMaterialSleepsAndWakesAsUnderOneProcess) {
   // Most of the layer slept before the ball came.
   EXPECT_GT(ref["sleeping_particle_substeps"].get<double>(),
             0.3 * ref["particle_substeps"].get<double>());
-  // Two processes: three add nothing here that the other tests do not cover.
-  const fs::path out = dir / "np2";
-  const test::CliResult r = run(dir, scene, out, mpirun(2));
-  ASSERT_EQ(r.status, 0) << r.err;
-  EXPECT_EQ(runJson(out)["sleeping_particle_substeps"], ref["sleeping_particle_substeps"]);
-  for (const char* f : {"bodies/rigid_states.csv", "bodies/forces.csv"})
-    EXPECT_TRUE(sameFile(out / f, dir / "one" / f)) << f;
-  for (int f = 1; f <= 12; ++f)
-    EXPECT_TRUE(sameFile(framePly(out, f), framePly(dir / "one", f))) << "frame " << f;
+  // Two processes, and three whose cuts follow each process's measured
+  // work (they move every frame): each process keeps its own blocks' still
+  // times, sends those beside another's blocks to it each step, and hands a
+  // block's state to its new owner when the cut moves (without checkpoints:
+  // a checkpoint gathers every process's state, which then holds them all).
+  j["output"]["checkpoints"] = false;
+  const std::string no_checkpoints = test::writeScene(dir, j, "no_checkpoints.json");
+  for (const auto& [name, launch, extra] :
+       {std::tuple{"np2", mpirun(2), ""}, {"np3_work", mpirun(3), "--balance work"}}) {
+    const fs::path out = dir / name;
+    const bool checkpoints = std::string(name) == "np2";
+    const test::CliResult r = run(dir, checkpoints ? scene : no_checkpoints, out, launch, extra);
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(runJson(out)["sleeping_particle_substeps"], ref["sleeping_particle_substeps"])
+        << name;
+    for (const char* f : {"bodies/rigid_states.csv", "bodies/forces.csv"})
+      EXPECT_TRUE(sameFile(out / f, dir / "one" / f)) << name << " " << f;
+    for (int f = 1; f <= 12; ++f)
+      EXPECT_TRUE(sameFile(framePly(out, f), framePly(dir / "one", f))) << name << " frame " << f;
+    if (checkpoints) EXPECT_TRUE(sameCheckpoints(out, dir / "one")) << name;
+  }
 }
 
 // What the split does not run yet is refused by name, once, before any work.

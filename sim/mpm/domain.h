@@ -50,6 +50,17 @@ class DomainExchange {
   // Per grid node values (layout.gridBlocks() * 64): the owner of each
   // block takes the smallest of its own and every other process's value.
   virtual void minGhosts(const GridLayout& layout, std::vector<float>& per_node) = 0;
+  // The process that owns grid block `key`. Each process owns one run of
+  // keys, in process order.
+  virtual int ownerOf(uint64_t key) const = 0;
+  // How many times the blocks have been cut between the processes so far:
+  // the same on every process at the same step.
+  virtual uint64_t cuts() const = 0;
+  // Sends out[p] to each process p it is not empty for (`out` may end
+  // before the last process); returns what each process sent here (empty
+  // where nothing came). Collective.
+  virtual std::vector<std::vector<unsigned char>> exchangeBytes(
+      const std::vector<std::vector<unsigned char>>& out) = 0;
 };
 
 // Every process's elements of `mine`, concatenated in process order, on

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include "sim/mpm/domain.h"
 #include "sim/mpm/halo.h"
@@ -40,6 +41,10 @@ size_t SleepTracker::classify(GridLayout& layout, const std::vector<WakeBox>& wa
                               const Vec3f& origin, float inv_dx, DomainExchange* split) {
   const size_t nblocks = layout.particleBlocks();
 
+  // Split over processes and cut anew since the state was kept: blocks
+  // this process kept and another owns now go to their owner.
+  if (split && own_only_ && split->cuts() != cuts_) handOver(*split);
+
   // Carry each block's still time over. A block whose particle count
   // changed (material came in or left, a source filled it, a sink emptied
   // it) starts again; so do new blocks.
@@ -55,15 +60,46 @@ size_t SleepTracker::classify(GridLayout& layout, const std::vector<WakeBox>& wa
       still_[b] = state_.still[j];
   }
 
-  // Every block that holds particles now, and its still time: split over
-  // processes, every process's (each holds a run of keys, in process order).
+  // Every block that holds particles now, and its still time: this
+  // process's, and split over processes the other processes' blocks beside
+  // its own.
   struct Block {
     uint64_t key;
     double still;
   };
   std::vector<Block> now(nblocks);
   for (size_t b = 0; b < nblocks; ++b) now[b] = {layout.particle_keys[b], still_[b]};
-  if (split) now = allGatherValues(*split, now);
+  if (split) {
+    std::vector<std::vector<unsigned char>> out;
+    std::vector<int> to;
+    for (size_t b = 0; b < nblocks; ++b) {
+      // Only blocks whose neighbourhood's keys leave this process's run.
+      const Vec3i c = unpackBlock(layout.particle_keys[b]);
+      if (split->owns(packBlock(c - Vec3i::Ones())) && split->owns(packBlock(c + Vec3i::Ones())))
+        continue;
+      to.clear();
+      for (int dx = -1; dx <= 1; ++dx)
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dz = -1; dz <= 1; ++dz) {
+            const int p = split->ownerOf(packBlock(c + Vec3i(dx, dy, dz)));
+            if (p != split->process() && std::find(to.begin(), to.end(), p) == to.end())
+              to.push_back(p);
+          }
+      for (const int p : to) {
+        if (out.size() <= size_t(p)) out.resize(size_t(p) + 1);
+        const size_t at = out[size_t(p)].size();
+        out[size_t(p)].resize(at + sizeof(Block));
+        std::memcpy(out[size_t(p)].data() + at, &now[b], sizeof(Block));
+      }
+    }
+    for (const std::vector<unsigned char>& in : split->exchangeBytes(out))
+      for (size_t at = 0; at + sizeof(Block) <= in.size(); at += sizeof(Block)) {
+        Block k;
+        std::memcpy(&k, in.data() + at, sizeof(Block));
+        now.push_back(k);
+      }
+    std::sort(now.begin(), now.end(), [](const Block& a, const Block& b) { return a.key < b.key; });
+  }
   std::vector<uint64_t> keys(now.size());
   for (size_t b = 0; b < now.size(); ++b) keys[b] = now[b].key;
   auto stillAt = [&](const Vec3i& c) {
@@ -71,7 +107,6 @@ size_t SleepTracker::classify(GridLayout& layout, const std::vector<WakeBox>& wa
     return it == keys.end() || *it != packBlock(c) ||
            now[size_t(it - keys.begin())].still >= desc_.delay;
   };
-
   // Asleep: still for the delay, and so is every block around it (material
   // creeping next to a sleeping block would be held back by its rest), and
   // no moving solid near.
@@ -153,28 +188,71 @@ void SleepTracker::update(const GridLayout& layout, const std::vector<float>& sp
     else
       still_[b] = 0.0;
   }
-  if (!split) {
-    state_.keys = layout.particle_keys;
-    state_.counts = counts_;
-    state_.still = still_;
-    return;
+  // Each process keeps its own blocks' state (the whole world's is
+  // gathered only for a checkpoint).
+  state_.keys = layout.particle_keys;
+  state_.counts = counts_;
+  state_.still = still_;
+  own_only_ = split != nullptr;
+  cuts_ = split ? split->cuts() : 0;
+}
+
+namespace {
+
+// A block's state as processes send it.
+struct Entry {
+  uint64_t key;
+  uint64_t count;
+  double still;
+};
+
+void setState(SleepState& state, const std::vector<Entry>& entries) {
+  state.keys.resize(entries.size());
+  state.counts.resize(entries.size());
+  state.still.resize(entries.size());
+  for (size_t b = 0; b < entries.size(); ++b) {
+    state.keys[b] = entries[b].key;
+    state.counts[b] = uint32_t(entries[b].count);
+    state.still[b] = entries[b].still;
   }
-  struct Block {
-    uint64_t key;
-    uint64_t count;
-    double still;
-  };
-  std::vector<Block> mine(nblocks);
-  for (size_t b = 0; b < nblocks; ++b) mine[b] = {layout.particle_keys[b], counts_[b], still_[b]};
-  const std::vector<Block> all = allGatherValues(*split, mine);
-  state_.keys.resize(all.size());
-  state_.counts.resize(all.size());
-  state_.still.resize(all.size());
-  for (size_t b = 0; b < all.size(); ++b) {
-    state_.keys[b] = all[b].key;
-    state_.counts[b] = uint32_t(all[b].count);
-    state_.still[b] = all[b].still;
+}
+
+}  // namespace
+
+void SleepTracker::handOver(DomainExchange& split) {
+  std::vector<std::vector<unsigned char>> out;
+  std::vector<Entry> kept;
+  for (size_t b = 0; b < state_.keys.size(); ++b) {
+    const Entry e{state_.keys[b], state_.counts[b], state_.still[b]};
+    const int p = split.ownerOf(e.key);
+    if (p == split.process()) {
+      kept.push_back(e);
+      continue;
+    }
+    if (out.size() <= size_t(p)) out.resize(size_t(p) + 1);
+    const size_t at = out[size_t(p)].size();
+    out[size_t(p)].resize(at + sizeof(Entry));
+    std::memcpy(out[size_t(p)].data() + at, &e, sizeof(Entry));
   }
+  for (const std::vector<unsigned char>& in : split.exchangeBytes(out))
+    for (size_t at = 0; at + sizeof(Entry) <= in.size(); at += sizeof(Entry)) {
+      Entry e;
+      std::memcpy(&e, in.data() + at, sizeof(Entry));
+      kept.push_back(e);
+    }
+  std::sort(kept.begin(), kept.end(), [](const Entry& a, const Entry& b) { return a.key < b.key; });
+  setState(state_, kept);
+  cuts_ = split.cuts();
+}
+
+void SleepTracker::gatherState(DomainExchange& split) {
+  if (!own_only_) return;
+  std::vector<Entry> mine(state_.keys.size());
+  for (size_t b = 0; b < mine.size(); ++b)
+    mine[b] = {state_.keys[b], state_.counts[b], state_.still[b]};
+  // Each process's blocks lie in its run of keys, in process order.
+  setState(state_, allGatherValues(split, mine));
+  own_only_ = false;
 }
 
 void stillSleepingParticles(const GridLayout& layout, std::vector<ParticleSet>& sets) {

@@ -73,8 +73,10 @@ class SleepTracker {
   // layout.asleep. Blocks touched by `wake` (world boxes) stay awake.
   // `origin`, `inv_dx`: the binner's shifted origin and inverse spacing.
   // Returns the number of sleeping particles. Split over processes
-  // (`split`), a block's neighbours may be another process's: every
-  // process's blocks and still times are gathered first.
+  // (`split`), a block's neighbours may be another process's: each process
+  // sends the still times of its blocks beside another's to that process
+  // (and, after a new cut, the state of blocks it no longer owns to their
+  // owners).
   size_t classify(GridLayout& layout, const std::vector<WakeBox>& wake, const Vec3f& origin,
                   float inv_dx, DomainExchange* split = nullptr);
 
@@ -86,12 +88,14 @@ class SleepTracker {
 
   // After the gather: `speed2` holds each awake block's largest squared
   // particle speed (sleeping blocks: anything). Advances the still times;
-  // split over processes, the state kept is every process's.
+  // split over processes, each keeps its own blocks' state.
   void update(const GridLayout& layout, const std::vector<float>& speed2, double dt,
               DomainExchange* split = nullptr);
 
   // Whether every particle block of the last step within `box` had been
   // still for the delay (blocks that a body resting there would let sleep).
+  // Split over processes, of the blocks this process kept: the solver
+  // combines every process's answer.
   bool calmWithin(const WakeBox& box, const Vec3f& origin, float inv_dx) const;
 
   // Seconds each rigid body (world order) has been slower than the speed;
@@ -100,12 +104,27 @@ class SleepTracker {
   double delay() const { return desc_.delay; }
   double speed() const { return desc_.speed; }
 
+  // The state a checkpoint saves: split over processes, gathered first
+  // (gatherState, collective).
   const SleepState& state() const { return state_; }
-  void restore(SleepState s) { state_ = std::move(s); }
+  void gatherState(DomainExchange& split);
+  void restore(SleepState s) {
+    state_ = std::move(s);
+    own_only_ = false;
+  }
 
  private:
+  // After a new cut: sends the state of blocks another process owns now
+  // to it, and keeps those this one owns, its own and those it received.
+  void handOver(DomainExchange& split);
+
   SleepDesc desc_;
   SleepState state_;
+  // Split over processes: whether state_ holds this process's blocks only
+  // (after update) or every process's (restored, or gathered), and the
+  // domain's cut count when it was kept.
+  bool own_only_ = false;
+  uint64_t cuts_ = 0;
   std::vector<double> still_;       // per block of the current layout
   std::vector<uint32_t> counts_;  // per block of the current layout
   std::vector<uint8_t> woken_;    // per block of the current layout
