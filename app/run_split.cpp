@@ -108,6 +108,10 @@ render::Image RunSplit::renderPreview(render::PreviewRenderer& renderer, const W
   {
     const std::vector<std::vector<uint64_t>> seq = domain_->sequences(world.sets);
     std::vector<std::pair<uint64_t, std::pair<uint32_t, uint32_t>>> by_key;  // (set, index)
+    // The set in the top byte: sets number under 255, sequence numbers
+    // stay under 2^56 (MpiDomain::sequences).
+    if (seq.size() >= 255)
+      throw std::runtime_error("previews: more than 254 particle sets to composite");
     for (size_t s = 0; s < seq.size(); ++s)
       for (size_t i = 0; i < seq[s].size(); ++i)
         by_key.push_back({uint64_t(s + 1) << 56 | seq[s][i], {uint32_t(s), uint32_t(i)}});
