@@ -182,7 +182,9 @@ TEST(SurfaceMesh, LevelSetInPartsIsTheWholeLevelSet) {
         {3, [](const Vec3d& x) { return x.x() < 0.2   ? 0
                                         : x.y() < 0.1 ? 1
                                                       : 2; }}};
-    for (const auto& [parts, owner] : splits) {
+    for (const auto& split : splits) {
+      const int parts = split.first;
+      const Owner& owner = split.second;
       std::vector<std::vector<unsigned char>> leaves(static_cast<size_t>(parts));
       size_t halo = 0;
       for (int p = 0; p < parts; ++p) {
