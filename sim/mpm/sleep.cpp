@@ -107,6 +107,7 @@ size_t SleepTracker::classify(GridLayout& layout, const std::vector<WakeBox>& wa
     return it == keys.end() || *it != packBlock(c) ||
            now[size_t(it - keys.begin())].still >= desc_.delay;
   };
+
   // Asleep: still for the delay, and so is every block around it (material
   // creeping next to a sleeping block would be held back by its rest), and
   // no moving solid near.
