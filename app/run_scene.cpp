@@ -167,8 +167,8 @@ int runScene(const RunOptions& options_in) {
   // The preview renderer keeps one OSMesa context for the whole run. Made
   // before the writer, so that the writer's thread ends before it goes.
   // Split over processes, every process draws its own particles and
-  // process 0 composites them (not for surfaces, which process 0 makes
-  // from every particle's position).
+  // process 0 composites them; previews of surfaces draw no particles, and
+  // process 0 draws the surfaces made in parts.
   std::unique_ptr<render::PreviewWriter> preview;
   std::unique_ptr<render::PreviewRenderer> layers;
   const bool composited_previews =

@@ -447,13 +447,11 @@ struct PreviewRenderer::Impl {
       glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(particles.count * 3 * sizeof(float)), particles.xyz,
                    GL_STREAM_DRAW);
       glEnableVertexAttribArray(0);
-      glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 0, nullptr);
       glVertexAttribDivisor(0, 1);
       glBindBuffer(GL_ARRAY_BUFFER, object_vbo);
       glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(particles.count * sizeof(uint16_t)), particles.object,
                    GL_STREAM_DRAW);
       glEnableVertexAttribArray(1);
-      glVertexAttribIPointer(1, 1, GL_UNSIGNED_SHORT, 0, nullptr);
       glVertexAttribDivisor(1, 1);
       if (keyed) {
         // Each key as two words, low first: a little-endian uint64.
@@ -461,12 +459,12 @@ struct PreviewRenderer::Impl {
         glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(particles.count * sizeof(uint64_t)), keys,
                      GL_STREAM_DRAW);
         glEnableVertexAttribArray(2);
-        glVertexAttribIPointer(2, 2, GL_UNSIGNED_INT, 0, nullptr);
         glVertexAttribDivisor(2, 1);
       }
-      // In batches, each finished before the next: llvmpipe bins a draw's
+      // In batches, each finished before the next (llvmpipe bins a draw's
       // triangles per tile before it rasterises them, and a million
-      // particles binned at once held hundreds of MiB.
+      // particles binned at once held hundreds of MiB); each batch points
+      // the attributes at its first particle.
       for (size_t first = 0; first < particles.count; first += kParticleBatch) {
         const GLsizei n = GLsizei(std::min(kParticleBatch, particles.count - first));
         glBindBuffer(GL_ARRAY_BUFFER, particle_vbo);

@@ -104,8 +104,8 @@ double PreviewWriter::writeFrame(const World& world, int frame,
     f.object.clear();
   }
   f.meshes.insert(f.meshes.end(), meshes.begin(), meshes.end());
-  const Image image = renderer_->render(f);
-  return seconds(t0) + writeImage(frame, image);
+  writeImage(frame, renderer_->render(f));
+  return seconds(t0);
 }
 
 double PreviewWriter::writeImage(int frame, const Image& image) {
