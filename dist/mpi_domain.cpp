@@ -630,16 +630,10 @@ bool MpiDomain::wholeIndex(const std::vector<ParticleSet>& sets,
   const size_t groups = size_t(size_), n = sets.size();
   // (And one more entry in each: whether any number lay outside the groups.)
   std::vector<uint64_t> count(n * groups + 1, 0), top(n * groups + 1, 0);
-  // Whether set s's particles carry sequence numbers (else their place here).
-  std::vector<uint8_t> numbered(n);
-  for (size_t s = 0; s < n; ++s)
-    numbered[s] = !seq_fresh_ && s < seq_.size() && seq_[s].size() == sets[s].size();
-  auto seqOf = [&](size_t s, size_t i) {
-    return numbered[s] ? seq_[s][i] : uint64_t(rank_) << kShift | i;
-  };
+  const std::vector<std::vector<uint64_t>> seq = sequences(sets);
   for (size_t s = 0; s < n; ++s)
     for (size_t i = 0; i < sets[s].size(); ++i) {
-      const uint64_t q = seqOf(s, i), g = q >> kShift;
+      const uint64_t q = seq[s][i], g = q >> kShift;
       if (g >= groups) {
         top.back() = 1;
         continue;
@@ -664,7 +658,7 @@ bool MpiDomain::wholeIndex(const std::vector<ParticleSet>& sets,
     }
     index[s].resize(sets[s].size());
     for (size_t i = 0; i < sets[s].size(); ++i) {
-      const uint64_t q = seqOf(s, i);
+      const uint64_t q = seq[s][i];
       index[s][i] = before[q >> kShift] + (q & ((uint64_t(1) << kShift) - 1));
     }
   }
@@ -788,16 +782,15 @@ void MpiDomain::gather(const std::vector<ParticleSet>& sets, std::vector<Particl
   const double t0 = MPI_Wtime();
   constexpr int kTag = 7;
   all = emptyLike(sets);
+  const std::vector<std::vector<uint64_t>> mine = sequences(sets);
   for (size_t s = 0; s < sets.size(); ++s) {
     const ParticleSet& set = sets[s];
     const size_t record = recordBytes(set);
     const size_t per_chunk = std::max<size_t>(1, gather_chunk_ / record);
-    const bool numbered = !seq_fresh_ && s < seq_.size() && seq_[s].size() == set.size();
     std::vector<unsigned char> chunk;
     auto pack = [&](size_t first, size_t n) {
       chunk.clear();
-      for (size_t i = first; i < first + n; ++i)
-        packParticle(set, i, numbered ? seq_[s][i] : uint64_t(rank_) << 40 | i, chunk);
+      for (size_t i = first; i < first + n; ++i) packParticle(set, i, mine[s][i], chunk);
     };
     uint64_t count = set.size();
     std::vector<uint64_t> counts(rank_ == 0 ? size_t(size_) : 0);
