@@ -129,38 +129,23 @@ render::Image RunSplit::renderPreview(render::PreviewRenderer& renderer, const W
   }
   const std::vector<render::PreviewMesh> meshes = render::previewMeshesFromWorld(world);
   const render::PreviewParticles particles{xyz.data(), object.data(), object.size()};
-  // Process 0 takes each other process's particle pixels in turn, in
-  // chunks of 4 MiB (MPI's int counts; no process holds more than its
-  // own pixels and one chunk besides).
-  constexpr int kTag = 11;
-  constexpr size_t kChunk = (size_t(4) << 20) / sizeof(render::LayerPixel);
+  // Process 0 takes each other process's particle pixels in turn, a
+  // chunk at a time: no process holds more than its own pixels and one
+  // chunk besides.
   if (!root()) {
     const std::vector<render::LayerPixel> px =
         renderer.renderParticlePixels(particles, meshes, sorted.data());
-    const double t0 = MPI_Wtime();
-    const uint64_t count = px.size();
-    MPI_Send(&count, 1, MPI_UINT64_T, 0, kTag, MPI_COMM_WORLD);
-    for (size_t first = 0; first < px.size(); first += kChunk)
-      MPI_Send(px.data() + first, int(std::min(kChunk, px.size() - first) * sizeof(px[0])),
-               MPI_BYTE, 0, kTag, MPI_COMM_WORLD);
-    preview_seconds_ += MPI_Wtime() - t0;
-    preview_bytes_ += double(sizeof(count) + px.size() * sizeof(px[0]));
+    domain_->gatherChunks(px.data(), px.size() * sizeof(px[0]), sizeof(px[0]), {});
     return {};
   }
   render::PreviewLayer layer = renderer.renderLayer(particles, meshes, sorted.data());
-  const double t0 = MPI_Wtime();
   std::vector<render::LayerPixel> chunk;
-  for (int r = 1; r < size_; ++r) {
-    uint64_t count = 0;
-    MPI_Recv(&count, 1, MPI_UINT64_T, r, kTag, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
-    for (uint64_t first = 0; first < count; first += kChunk) {
-      chunk.resize(size_t(std::min<uint64_t>(kChunk, count - first)));
-      MPI_Recv(chunk.data(), int(chunk.size() * sizeof(chunk[0])), MPI_BYTE, r, kTag,
-               MPI_COMM_WORLD, MPI_STATUS_IGNORE);
-      render::mergePixels(layer, chunk.data(), chunk.size());
-    }
-  }
-  preview_seconds_ += MPI_Wtime() - t0;
+  domain_->gatherChunks(nullptr, 0, sizeof(render::LayerPixel),
+                        [&](int, const unsigned char* p, size_t n) {
+                          chunk.resize(n / sizeof(render::LayerPixel));
+                          std::memcpy(static_cast<void*>(chunk.data()), p, n);
+                          render::mergePixels(layer, chunk.data(), chunk.size());
+                        });
   return renderer.finish(layer);
 }
 
@@ -245,9 +230,9 @@ void RunSplit::record(RunRecord& rec, const World& world) {
                                " s: the split run went wrong (please report it)");
   // Each process's figures for run.json, seven per process.
   const std::vector<double> mine{double(world.particleCount()),
-                                 domain_->commSeconds() + preview_seconds_,
+                                 domain_->commSeconds(),
                                  domain_->balanceSeconds(),
-                                 double(domain_->bytesSent()) + preview_bytes_,
+                                 double(domain_->bytesSent()),
                                  double(domain_->particlesReceived()),
                                  double(peakResidentBytes()),
                                  built_};

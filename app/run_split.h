@@ -141,8 +141,6 @@ class RunSplit {
   int rank_ = 0, size_ = 1;
   std::unique_ptr<MpiDomain> domain_;
   double built_ = 0.0;  // particles this process held when the split began
-  double preview_seconds_ = 0.0;  // in renderPreview's exchange, so far
-  double preview_bytes_ = 0.0;    // sent by it, so far
   bool shared_files_ = false;
 };
 

@@ -4,6 +4,7 @@
 #include <climits>
 #include <cstdlib>
 #include <cstring>
+#include <functional>
 #include <numeric>
 #include <stdexcept>
 #include <thread>
@@ -728,34 +729,43 @@ std::vector<std::vector<Vec3f>> MpiDomain::haloPositions(const std::vector<Parti
   return halo;
 }
 
-std::vector<std::vector<unsigned char>> MpiDomain::gatherBytes(
-    const std::vector<unsigned char>& mine) {
+void MpiDomain::gatherChunks(const void* data, size_t bytes, size_t record,
+                             const std::function<void(int, const unsigned char*, size_t)>& take) {
   const double t0 = MPI_Wtime();
   constexpr int kTag = 12;
-  constexpr size_t kChunk = size_t(4) << 20;
-  std::vector<std::vector<unsigned char>> all;
+  // Whole records of at most 4 MiB a message (MPI's counts are ints).
+  const size_t chunk = std::max<size_t>(1, (size_t(4) << 20) / record) * record;
   if (rank_ != 0) {
-    const uint64_t count = mine.size();
+    const auto* p = static_cast<const unsigned char*>(data);
+    const uint64_t count = bytes;
     check(MPI_Send(&count, 1, MPI_UINT64_T, 0, kTag, comm_), "Send");
-    for (size_t first = 0; first < mine.size(); first += kChunk)
-      check(MPI_Send(mine.data() + first, int(std::min(kChunk, mine.size() - first)), MPI_BYTE, 0,
-                     kTag, comm_),
+    for (size_t first = 0; first < bytes; first += chunk)
+      check(MPI_Send(p + first, int(std::min(chunk, bytes - first)), MPI_BYTE, 0, kTag, comm_),
             "Send");
-    bytes_sent_ += sizeof(count) + mine.size();
+    bytes_sent_ += sizeof(count) + bytes;
   } else {
-    all.resize(size_t(size_));
-    all[0] = mine;
+    std::vector<unsigned char> in;
     for (int r = 1; r < size_; ++r) {
       uint64_t count = 0;
       check(MPI_Recv(&count, 1, MPI_UINT64_T, r, kTag, comm_, MPI_STATUS_IGNORE), "Recv");
-      all[size_t(r)].resize(size_t(count));
-      for (size_t first = 0; first < count; first += kChunk)
-        check(MPI_Recv(all[size_t(r)].data() + first, int(std::min<size_t>(kChunk, count - first)),
-                       MPI_BYTE, r, kTag, comm_, MPI_STATUS_IGNORE),
+      for (size_t first = 0; first < count; first += chunk) {
+        in.resize(std::min<size_t>(chunk, count - first));
+        check(MPI_Recv(in.data(), int(in.size()), MPI_BYTE, r, kTag, comm_, MPI_STATUS_IGNORE),
               "Recv");
+        take(r, in.data(), in.size());
+      }
     }
   }
   comm_seconds_ += MPI_Wtime() - t0;
+}
+
+std::vector<std::vector<unsigned char>> MpiDomain::gatherBytes(
+    const std::vector<unsigned char>& mine) {
+  std::vector<std::vector<unsigned char>> all(rank_ == 0 ? size_t(size_) : 0);
+  if (rank_ == 0) all[0] = mine;
+  gatherChunks(mine.data(), mine.size(), 1, [&](int r, const unsigned char* p, size_t n) {
+    all[size_t(r)].insert(all[size_t(r)].end(), p, p + n);
+  });
   return all;
 }
 

@@ -13,6 +13,7 @@
 #include <mpi.h>
 
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "sim/mpm/domain.h"
@@ -54,8 +55,14 @@ class MpiDomain final : public DomainExchange, public ParticleShare {
   // lie within `reach` (m, along each axis) of a point this process owns
   // (ownsPoint), and maybe a few more (a block's worth).
   std::vector<std::vector<Vec3f>> haloPositions(const std::vector<ParticleSet>& sets, double reach);
+  // Collective: every other process's `bytes` at `data`, records of
+  // `record` bytes, to process 0, in process order and chunks of whole
+  // records (at most 4 MiB), each handed to `take` (the process it came
+  // from, the chunk) as it arrives; process 0's own are not.
+  void gatherChunks(const void* data, size_t bytes, size_t record,
+                    const std::function<void(int, const unsigned char*, size_t)>& take);
   // Collective: `mine` from every process, on process 0 (empty on the
-  // others), in process order, sent in chunks of 4 MiB.
+  // others), in process order.
   std::vector<std::vector<unsigned char>> gatherBytes(const std::vector<unsigned char>& mine);
   // Per set, each particle's sequence number: gather() puts the particles
   // of each set in ascending order of these. Below 2^56.
