@@ -76,6 +76,27 @@ std::vector<T> allGatherValues(DomainExchange& domain, const std::vector<T>& min
   return out;
 }
 
+// Sends out[p] (T trivially copyable) to each process p, and returns what
+// every process sent here, concatenated in process order.
+template <typename T>
+std::vector<T> exchangeValues(DomainExchange& domain, const std::vector<std::vector<T>>& out) {
+  std::vector<std::vector<unsigned char>> bytes(out.size());
+  for (size_t p = 0; p < out.size(); ++p) {
+    bytes[p].resize(out[p].size() * sizeof(T));
+    if (!bytes[p].empty())
+      std::memcpy(bytes[p].data(), static_cast<const void*>(out[p].data()), bytes[p].size());
+  }
+  std::vector<T> in;
+  for (const std::vector<unsigned char>& from : domain.exchangeBytes(bytes)) {
+    const size_t at = in.size();
+    in.resize(at + from.size() / sizeof(T));
+    if (!from.empty())
+      std::memcpy(static_cast<void*>(in.data() + at), from.data(),
+                  from.size() / sizeof(T) * sizeof(T));
+  }
+  return in;
+}
+
 // Adds grid blocks (sorted or not) to a layout: grid_keys stays sorted and
 // the particle blocks' neighbour indices follow. Keys already present are
 // ignored.

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 
 #include "sim/mpm/domain.h"
 #include "sim/mpm/halo.h"
@@ -70,7 +69,7 @@ size_t SleepTracker::classify(GridLayout& layout, const std::vector<WakeBox>& wa
   std::vector<Block> now(nblocks);
   for (size_t b = 0; b < nblocks; ++b) now[b] = {layout.particle_keys[b], still_[b]};
   if (split) {
-    std::vector<std::vector<unsigned char>> out;
+    std::vector<std::vector<Block>> out;
     std::vector<int> to;
     for (size_t b = 0; b < nblocks; ++b) {
       // Only blocks whose neighbourhood's keys leave this process's run.
@@ -87,17 +86,11 @@ size_t SleepTracker::classify(GridLayout& layout, const std::vector<WakeBox>& wa
           }
       for (const int p : to) {
         if (out.size() <= size_t(p)) out.resize(size_t(p) + 1);
-        const size_t at = out[size_t(p)].size();
-        out[size_t(p)].resize(at + sizeof(Block));
-        std::memcpy(out[size_t(p)].data() + at, &now[b], sizeof(Block));
+        out[size_t(p)].push_back(now[b]);
       }
     }
-    for (const std::vector<unsigned char>& in : split->exchangeBytes(out))
-      for (size_t at = 0; at + sizeof(Block) <= in.size(); at += sizeof(Block)) {
-        Block k;
-        std::memcpy(&k, in.data() + at, sizeof(Block));
-        now.push_back(k);
-      }
+    const std::vector<Block> beside = exchangeValues(*split, out);
+    now.insert(now.end(), beside.begin(), beside.end());
     std::sort(now.begin(), now.end(), [](const Block& a, const Block& b) { return a.key < b.key; });
   }
   std::vector<uint64_t> keys(now.size());
@@ -221,7 +214,7 @@ void setState(SleepState& state, const std::vector<Entry>& entries) {
 }  // namespace
 
 void SleepTracker::handOver(DomainExchange& split) {
-  std::vector<std::vector<unsigned char>> out;
+  std::vector<std::vector<Entry>> out;
   std::vector<Entry> kept;
   for (size_t b = 0; b < state_.keys.size(); ++b) {
     const Entry e{state_.keys[b], state_.counts[b], state_.still[b]};
@@ -231,16 +224,10 @@ void SleepTracker::handOver(DomainExchange& split) {
       continue;
     }
     if (out.size() <= size_t(p)) out.resize(size_t(p) + 1);
-    const size_t at = out[size_t(p)].size();
-    out[size_t(p)].resize(at + sizeof(Entry));
-    std::memcpy(out[size_t(p)].data() + at, &e, sizeof(Entry));
+    out[size_t(p)].push_back(e);
   }
-  for (const std::vector<unsigned char>& in : split.exchangeBytes(out))
-    for (size_t at = 0; at + sizeof(Entry) <= in.size(); at += sizeof(Entry)) {
-      Entry e;
-      std::memcpy(&e, in.data() + at, sizeof(Entry));
-      kept.push_back(e);
-    }
+  const std::vector<Entry> arrived = exchangeValues(split, out);
+  kept.insert(kept.end(), arrived.begin(), arrived.end());
   std::sort(kept.begin(), kept.end(), [](const Entry& a, const Entry& b) { return a.key < b.key; });
   setState(state_, kept);
   cuts_ = split.cuts();
