@@ -384,6 +384,17 @@ TEST(Render, LayersCompositeAcrossDrawBatches) {
         particlePixels(r.renderLayer(part.particles(), {}, keys.data()));
     ASSERT_EQ(banded.size(), all.size());
     EXPECT_EQ(std::memcmp(banded.data(), all.data(), all.size() * sizeof(LayerPixel)), 0);
+    // Each pixel's key is the particle's drawn there, in every batch: its
+    // colour is that particle's object's (the palette's nearest entry;
+    // shading and edges blur a few).
+    size_t agree = 0, late = 0;
+    for (const LayerPixel& p : banded) {
+      const size_t i = size_t(p.key - kFirstParticleKey);
+      agree += nearestPaletteEntry(p.rgba) == whole.object[i];
+      late += i >= (size_t(1) << 17);
+    }
+    EXPECT_GT(late, banded.size() / 20);  // from the second batch
+    EXPECT_GT(agree, 0.97 * double(banded.size())) << agree << " of " << banded.size();
     mergePixels(composite, banded.data(), banded.size());
   }
   EXPECT_TRUE(r.finish(composite).rgb == expected.rgb);
