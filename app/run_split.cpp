@@ -326,10 +326,6 @@ RunSplit::Gather RunSplit::planOutput(const OutputDesc& o, RunRecord& rec) const
 std::string RunSplit::unsupported(const World& world) const {
   if (!active()) return "";
   const SceneDesc& s = world.scene;
-  if (!world.bodies.empty() && s.solver.coupling == CouplingScheme::SingleGrid)
-    return "solver.coupling \"single\" with solids";
-  if (!world.bodies.empty() && s.solver.solid_readback == SolidReadback::Combined)
-    return "solver.solid_readback \"combined\"";
   // Its node sums would need summing across the cut in colour order, as
   // P2G's are; not done yet.
   if ((!world.bodies.empty() || !world.elastics.empty()) && s.solver.front_fields)

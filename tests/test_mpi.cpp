@@ -658,14 +658,16 @@ TEST_F(Mpi, ACheckpointPassedOverLeavesTheBuiltShareWhereTheCutSays) {
 }
 
 // A ball dropped into water beside a fixed wall, and sand pushed by an
-// animated collider: bodies are whole on every process, each node's
-// collision is its owner's, and the bodies move as under one process. The
-// ball's friction makes the collision's passes sum over its nodes in float,
-// in the order of their blocks' keys on any split.
-TEST_F(Mpi, RigidBodiesAndCollidersAgreeWithOneProcess) {
-  const fs::path dir = test::tempDir("bodies");
-  json j = test::baseScene("mpi_bodies", {0.64, 0.4, 0.24}, 0.02);
-  j["frames"]["count"] = 8;
+// animated collider (with `elastic`, a jelly cube dropped onto the sand
+// too), run under one process and under each of `counts` with `solver`:
+// the bodies, their forces, every particle and the checkpoints must be the
+// single process's bytes.
+void bodiesAgreeWithOneProcess(const std::string& tag, const json& solver, int frames, bool elastic,
+                               std::initializer_list<int> counts) {
+  const fs::path dir = test::tempDir(tag);
+  json j = test::baseScene("mpi_" + tag, {0.64, 0.4, 0.24}, 0.02);
+  j["frames"]["count"] = frames;
+  if (!solver.empty()) j["solver"] = solver;
   j["materials"] = {{"water", {{"model", "water"}, {"density", 1000}, {"bulk_modulus", 1e5}}},
                     {"sand", sandMaterial()}};
   j["objects"] = {
@@ -692,6 +694,15 @@ TEST_F(Mpi, RigidBodiesAndCollidersAgreeWithOneProcess) {
        {"kind", "collider"},
        {"shape", test::box({0.58, 0, 0.04}, {0.62, 0.14, 0.2})},
        {"animation", {{"keys", {{{"time", 0}}, {{"time", 0.4}, {"translate", {-0.08, 0, 0}}}}}}}}};
+  if (elastic) {
+    j["materials"]["jelly"] = jellyMaterial();
+    j["objects"].push_back({{"name", "cube"},
+                            {"kind", "elastic"},
+                            {"material", "jelly"},
+                            {"sample_spacing", 0.02},
+                            {"velocity", {0, -1.5, 0}},
+                            {"shape", test::box({0.48, 0.14, 0.08}, {0.56, 0.22, 0.16})}});
+  }
   j["output"] = {{"vdb", false}, {"png", false}};
   const std::string scene = test::writeScene(dir, j);
   const test::CliResult one = run(dir, scene, dir / "one", "OMP_NUM_THREADS=1");
@@ -712,18 +723,39 @@ TEST_F(Mpi, RigidBodiesAndCollidersAgreeWithOneProcess) {
   };
   const std::vector<double> ref = ballAtEnd(dir / "one");
   ASSERT_EQ(ref.size(), 13u);
-  EXPECT_LT(ref[1], 0.16);  // it fell into the water
-  for (int n : {2, 3}) {
+  EXPECT_LT(ref[1], 0.16) << tag;  // it fell into the water
+  for (int n : counts) {
     const fs::path out = dir / ("np" + std::to_string(n));
     const test::CliResult r = run(dir, scene, out, mpirun(n));
     ASSERT_EQ(r.status, 0) << r.err;
     // Bit for bit: the bodies, their forces and every particle.
     for (const char* f : {"bodies/rigid_states.csv", "bodies/forces.csv"})
-      EXPECT_TRUE(sameFile(out / f, dir / "one" / f)) << n << " " << f;
-    for (int f = 1; f <= 8; ++f)
-      EXPECT_TRUE(sameFile(framePly(out, f), framePly(dir / "one", f))) << n << " frame " << f;
-    EXPECT_TRUE(sameCheckpoints(out, dir / "one")) << n;
+      EXPECT_TRUE(sameFile(out / f, dir / "one" / f)) << tag << " " << n << " " << f;
+    for (int f = 1; f <= frames; ++f) {
+      EXPECT_TRUE(sameFile(framePly(out, f), framePly(dir / "one", f)))
+          << tag << " " << n << " frame " << f;
+      char mesh[32];
+      std::snprintf(mesh, sizeof(mesh), "bodies/cube.%04d.ply", f);
+      if (elastic) EXPECT_TRUE(sameFile(out / mesh, dir / "one" / mesh)) << tag << " " << mesh;
+    }
+    EXPECT_TRUE(sameCheckpoints(out, dir / "one")) << tag << " " << n;
   }
+}
+
+// Bodies are whole on every process, each node's collision is its owner's,
+// and the bodies move as under one process. The ball's friction makes the
+// collision's passes sum over its nodes in float, in the order of their
+// blocks' keys on any split.
+TEST_F(Mpi, RigidBodiesAndCollidersAgreeWithOneProcess) {
+  bodiesAgreeWithOneProcess("bodies", json::object(), 8, false, {2, 3});
+}
+
+// The coupling's other variants split alike: one grid for solids and
+// material, and solids that read the combined grid back (each node's as its
+// owner summed it), each with an elastic solid as well as rigid ones.
+TEST_F(Mpi, CouplingVariantsAgreeWithOneProcess) {
+  bodiesAgreeWithOneProcess("single_grid", {{"coupling", "single_grid"}}, 4, true, {2, 3});
+  bodiesAgreeWithOneProcess("combined", {{"solid_readback", "combined"}}, 4, true, {2, 3});
 }
 
 // An elastic (FEM) cube dropped into sand: the solid is whole on every
@@ -981,10 +1013,6 @@ void expectRefused(const std::string& tag, const json& solver, const std::string
   EXPECT_NE(r.err.find(key), std::string::npos) << r.err;
   EXPECT_NE(r.err.find(scene), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(dir / "out" / "particles"));
-}
-
-TEST_F(Mpi, SingleGridCouplingIsRefusedByName) {
-  expectRefused("refused", {{"coupling", "single"}}, "solver.coupling");
 }
 
 TEST_F(Mpi, FrontFieldsAreRefusedByName) {

@@ -538,7 +538,8 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
       c.v_vol = c.fixed ? Vec3f(Vec3f(sn.fixed_p[0], sn.fixed_p[1], sn.fixed_p[2]) / sn.fixed_m)
                         : Vec3f(Vec3f(sn.p[0], sn.p[1], sn.p[2]) / sn.m);
       c.v_mpm = Vec3f(g.v[0], g.v[1], g.v[2]);
-      c.v_cmp = before ? pre_[i] : c.v_mpm;
+      c.v_pre = pre_.empty() ? c.v_mpm : pre_[i];
+      c.v_cmp = before ? c.v_pre : c.v_mpm;
       // Two fields: the collision acts on the front field's mass and
       // velocity; a node with no front material takes none.
       if (!front_.empty()) {
@@ -578,22 +579,29 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
   node_impulse_.assign(pts.solids(), Vec3d::Zero());
   node_moment_.assign(pts.solids(), Vec3d::Zero());
 
+  change_keys_.clear();
+  change_.clear();
   if (single) {
     // One grid: both sides move with the combined velocity.
-    for (const Shared& c : shared_) {
-      const Vec3f vc = c.fixed ? c.v_vol
-                               : Vec3f((c.m_vol * c.v_vol + c.m_mpm * c.v_mpm) / (c.m_vol + c.m_mpm));
-      GridNode& g = grid[c.g];
+    for (size_t k = 0; k < shared_.size(); ++k) {
+      const Shared& c = shared_[k];
+      const Vec3f vc =
+          c.fixed ? c.v_vol : Vec3f((c.m_vol * c.v_vol + c.m_mpm * c.v_mpm) / (c.m_vol + c.m_mpm));
       if (c.fixed) addNodeLoad(c.fixed_solid, c, c.m_mpm * (c.v_mpm - vc));
-      for (int d = 0; d < 3; ++d) g.v[d] = vc[d];
-      if (!c.fixed) delta_[c.i] = vc - c.v_vol;
+      // Split over processes, every copy of the node takes its velocity.
+      if (c.g != kNotHere)
+        for (int d = 0; d < 3; ++d) grid[c.g].v[d] = vc[d];
+      if (!c.fixed) setChange(k, vc - c.v_vol);
     }
     return;
   }
   if (combined) {
-    // The solids read the combined grid of step 3, from before the collision.
-    for (const Shared& c : shared_)
-      if (!c.fixed) delta_[c.i] = c.m_mpm / (c.m_mpm + c.m_vol) * (pre_[c.i] - c.v_vol);
+    // The solids read the combined grid of step 3, from before the collision
+    // (each node's as its owner summed it, where the run is split).
+    for (size_t k = 0; k < shared_.size(); ++k) {
+      const Shared& c = shared_[k];
+      if (!c.fixed) setChange(k, c.m_mpm / (c.m_mpm + c.m_vol) * (c.v_pre - c.v_vol));
+    }
   }
 
   // Optionally (rigid_node_mass body_share) a rigid body's mass is shared
@@ -677,24 +685,25 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
       addNodeLoad(c.fixed_solid, c, -c.P);
     else if (!combined && c.solid >= 0)
       addNodeLoad(c.solid, c, -c.P);
-    else if (!combined && c.i != kNotHere && !domain_)
-      delta_[c.i] = -c.P / c.m_vol;
+    else if (!combined)
+      setChange(k, -c.P / c.m_vol);
   }
   stats_.collisions = collisions;
-  if (!domain_) return;
-  // Split over processes: the changes of every node (those the read-back
-  // above gives delta_), for gatherEverywhere. shared_ is in key order.
-  change_keys_.clear();
-  change_.clear();
-  for (size_t k = 0; k < shared_.size(); ++k) {
-    const Shared& c = shared_[k];
-    if (c.lambda <= 0.0f || c.fixed || c.solid >= 0 || combined) continue;
-    if (change_keys_.empty() || change_keys_.back() != shared_at_[k].first) {
-      change_keys_.push_back(shared_at_[k].first);
-      change_.resize(change_.size() + kBlockNodes, Vec3f::Zero());
-    }
-    change_[change_.size() - kBlockNodes + shared_at_[k].second] = -c.P / c.m_vol;
+}
+
+void GridCoupling::setChange(size_t k, const Vec3f& dv) {
+  const Shared& c = shared_[k];
+  if (!domain_) {
+    delta_[c.i] = dv;
+    return;
   }
+  // Split over processes: every node's change, block by block in key order
+  // (shared_'s), for gatherEverywhere.
+  if (change_keys_.empty() || change_keys_.back() != shared_at_[k].first) {
+    change_keys_.push_back(shared_at_[k].first);
+    change_.resize(change_.size() + kBlockNodes, Vec3f::Zero());
+  }
+  change_[change_.size() - kBlockNodes + shared_at_[k].second] = dv;
 }
 
 void GridCoupling::shareAcrossProcesses() {

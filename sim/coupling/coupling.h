@@ -66,8 +66,7 @@ class GridCoupling {
 
   // Split over processes (sim/mpm/domain.h): each node's collision is its
   // owner's, and every process solves the collision of all of them, so the
-  // bodies take the same impulses everywhere. Three grids, solids
-  // read back from the impulses (the defaults) only.
+  // bodies take the same impulses everywhere.
   void setDomain(DomainExchange* domain) { domain_ = domain; }
 
   // Contract steps 1 and 4: scatter the points' mass, momentum and normals
@@ -166,6 +165,7 @@ class GridCoupling {
     float m_mpm, m_vol, mu;
     float m_all;  // the node's whole MPM mass (m_mpm is its front field's where fields split)
     Vec3f v_mpm, v_cmp, v_vol, n, x;  // x: world position
+    Vec3f v_pre;                      // the MPM velocity before the grid update, where kept
     Vec3f P = Vec3f::Zero(), T = Vec3f::Zero(), dP = Vec3f::Zero();
     float lambda = 0.0f;  // accumulated normal impulse
     float close = 0.0f;   // approach speed the gap allows: gap / dt
@@ -213,6 +213,9 @@ class GridCoupling {
   void scanNearSolids(const std::vector<ParticleSet>& sets, const GridLayout& layout,
                       const TransferParams& p, bool gaps, bool fronts);
   void addNodeLoad(int32_t solid, const Shared& c, const Vec3f& impulse);
+  // The velocity change shared_[k] gives the solid points that gather it;
+  // called in shared_'s order.
+  void setChange(size_t k, const Vec3f& dv);
   // The normal impulses at moving rigid bodies' nodes (moving_), solved
   // for each body's velocity change (dV, dW) by Newton's method; returns
   // the largest number of iterations a body took.
