@@ -124,10 +124,6 @@ int runScene(const RunOptions& options_in) {
     // Split over processes, each builds only its share of the particles.
     world = buildSceneWorld(scene, mesh_cache, split.share(scene));
     if (split.root()) printMeshWarnings();
-    if (const std::string what = split.unsupported(world); !what.empty())
-      throw InputError(scene.source_path, "this scene uses " + what +
-                                              ", which a run split over processes (mpirun) does "
-                                              "not support yet: run it as one process");
     out_dir = options.out_dir.empty() ? scene.output.dir : options.out_dir;
     try {
       if (split.root()) makeOutputDirectories(scene, out_dir);

@@ -323,14 +323,4 @@ RunSplit::Gather RunSplit::planOutput(const OutputDesc& o, RunRecord& rec) const
   return whole ? Gather::Whole : Gather::None;
 }
 
-std::string RunSplit::unsupported(const World& world) const {
-  if (!active()) return "";
-  const SceneDesc& s = world.scene;
-  // Its node sums would need summing across the cut in colour order, as
-  // P2G's are; not done yet.
-  if ((!world.bodies.empty() || !world.elastics.empty()) && s.solver.front_fields)
-    return "solver.front_fields";
-  return "";
-}
-
 }  // namespace triad

@@ -51,9 +51,6 @@ class RunSplit {
   int rank() const { return rank_; }
   int size() const { return size_; }
 
-  // Why this world cannot run split (what it uses that the split does not
-  // support yet), or "".
-  std::string unsupported(const World& world) const;
   // What a split run builds (or reads from a checkpoint) of the particles
   // on this process: pass it to the world's build and the resume. Null when
   // the run is not split.

@@ -736,7 +736,9 @@ void bodiesAgreeWithOneProcess(const std::string& tag, const json& solver, int f
           << tag << " " << n << " frame " << f;
       char mesh[32];
       std::snprintf(mesh, sizeof(mesh), "bodies/cube.%04d.ply", f);
-      if (elastic) EXPECT_TRUE(sameFile(out / mesh, dir / "one" / mesh)) << tag << " " << mesh;
+      if (elastic) {
+        EXPECT_TRUE(sameFile(out / mesh, dir / "one" / mesh)) << tag << " " << mesh;
+      }
     }
     EXPECT_TRUE(sameCheckpoints(out, dir / "one")) << tag << " " << n;
   }
@@ -751,11 +753,14 @@ TEST_F(Mpi, RigidBodiesAndCollidersAgreeWithOneProcess) {
 }
 
 // The coupling's other variants split alike: one grid for solids and
-// material, and solids that read the combined grid back (each node's as its
-// owner summed it), each with an elastic solid as well as rigid ones.
+// material, solids that read the combined grid back (each node's as its
+// owner summed it), and two fields at moving solids' nodes (their sums
+// cross the cut in colour order, as P2G's do), each with an elastic solid
+// as well as rigid ones.
 TEST_F(Mpi, CouplingVariantsAgreeWithOneProcess) {
   bodiesAgreeWithOneProcess("single_grid", {{"coupling", "single_grid"}}, 4, true, {2, 3});
   bodiesAgreeWithOneProcess("combined", {{"solid_readback", "combined"}}, 4, true, {2, 3});
+  bodiesAgreeWithOneProcess("fronts", {{"front_fields", true}}, 4, true, {2, 3});
 }
 
 // An elastic (FEM) cube dropped into sand: the solid is whole on every
@@ -995,28 +1000,6 @@ TEST_F(Mpi, SleepingMaterialSleepsAndWakesAsUnderOneProcess) {
       EXPECT_TRUE(sameCheckpoints(out, dir / "one")) << name;
     }
   }
-}
-
-// What the split does not run yet is refused by name, once, before any work.
-void expectRefused(const std::string& tag, const json& solver, const std::string& key) {
-  const fs::path dir = test::tempDir(tag);
-  json j = everyMaterial(2);
-  j["solver"] = solver;
-  j["objects"].push_back(
-      {{"name", "ball"},
-       {"kind", "rigid"},
-       {"density", 500},
-       {"shape", {{"sphere", {{"center", {0.3, 0.3, 0.1}}, {"radius", 0.04}}}}}});
-  const std::string scene = test::writeScene(dir, j);
-  const test::CliResult r = run(dir, scene, dir / "out", mpirun(2));
-  EXPECT_EQ(r.status, 2) << r.err;
-  EXPECT_NE(r.err.find(key), std::string::npos) << r.err;
-  EXPECT_NE(r.err.find(scene), std::string::npos) << r.err;
-  EXPECT_FALSE(fs::exists(dir / "out" / "particles"));
-}
-
-TEST_F(Mpi, FrontFieldsAreRefusedByName) {
-  expectRefused("refused_fronts", {{"front_fields", true}}, "solver.front_fields");
 }
 
 #else

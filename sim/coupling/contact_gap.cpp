@@ -51,16 +51,21 @@ void GridCoupling::measureNearSolids(const std::vector<ParticleSet>& sets, const
   const bool moving =
       std::find(slot_moving_.begin(), slot_moving_.end(), uint8_t(1)) != slot_moving_.end();
   const bool solids = moving || (solver_.contact_gap_fixed && !slot_moving_.empty());
-  // Two fields stay within one process: a split run refuses them (their
-  // sums would have to cross the cut in colour order, as P2G's do).
-  fronts = fronts && !domain_;
   gap_.clear();
   front_.clear();
   for (auto& list : front_lists_) list.clear();
   if (gaps && (solids || domain_)) gap_.assign(nodes_.size(), kFar);
+  // Split over processes, every process takes part in the fields'
+  // exchange, with or without moving solids of its own.
+  const bool exchange_fronts = fronts && domain_;
+  if (exchange_fronts) {
+    front_layers_[0].assign(layout.layered_blocks * 8 * kBlockNodes, GridNode{0, {0, 0, 0}});
+    front_layers_[1].assign(front_layers_[0].size(), GridNode{0, {0, 0, 0}});
+  }
   if (fronts && moving) front_.assign(nodes_.size(), FrontSums{});
   fronts = fronts && moving;
   if ((gaps && solids) || fronts) scanNearSolids(sets, layout, p, gaps, fronts);
+  if (exchange_fronts) sumFrontsAcrossProcesses(layout);
   if (!gaps || !domain_) return;
   // The owner of a block takes the closest particle of every process.
   std::vector<float> per_node(layout.gridBlocks() * size_t(kBlockNodes), kFar);
@@ -208,7 +213,12 @@ void GridCoupling::scanNearSolids(const std::vector<ParticleSet>& sets, const Gr
   const float cos_front = float(std::cos(solver_.front_angle_deg * M_PI / 180.0));
   if (fronts) front_lists_.resize(size_t(omp_get_max_threads()));
   // The gaps and sums that one particle block's particles give their nodes.
-  auto scanBlock = [&](uint32_t pb, float* gap, std::vector<FrontParticle>* list) {
+  // The fields' sums go first to the block's own halo (`halo`, 6^3 nodes,
+  // zero), then to the nodes (addFrontHalo), so that each node adds one
+  // block's sums per colour: the order in which a split run's owners add
+  // the layers that cross the cut.
+  auto scanBlock = [&](uint32_t pb, int colour, float* gap, std::vector<FrontParticle>* list,
+                       FrontSums* halo) {
     std::array<int32_t, 8> slot;
     bool any = false;
     for (int d = 0; d < 8; ++d) {
@@ -218,6 +228,7 @@ void GridCoupling::scanNearSolids(const std::vector<ParticleSet>& sets, const Gr
       any |= slot[size_t(d)] >= 0 && takesGap(size_t(slot[size_t(d)]));
     }
     if (!any) return;
+    bool summed = false;
     for (size_t s = 0; s < sets.size(); ++s) {
       const ParticleSet& set = sets[s];
       const float radius = 0.5f * std::cbrt(set.volume);
@@ -282,7 +293,7 @@ void GridCoupling::scanNearSolids(const std::vector<ParticleSet>& sets, const Gr
               const float w = st.w[0][a] * st.w[1][b] * st.w[2][c];
               const Vec3f mom =
                   w * (mv0 + float(a) * D.col(0) + float(b) * D.col(1) + float(c) * D.col(2));
-              FrontSums& f = front_[size_t(node[k27])];
+              FrontSums& f = halo[haloNode(l.x() + a, l.y() + b, l.z() + c)];
               f.ma += w * m;
               for (int e = 0; e < 3; ++e) f.pa[e] += mom[e];
               // In front where the node's face faces the way the
@@ -296,8 +307,10 @@ void GridCoupling::scanNearSolids(const std::vector<ParticleSet>& sets, const Gr
               for (int e = 0; e < 3; ++e) f.pf[e] += mom[e];
             }
         if (touches) list->push_back({uint32_t(s), q, pb, mask, set.x[q]});
+        summed = summed || touches;
       }
     }
+    if (summed) addFrontHalo(pb, colour, layout, halo);
   };
   if (!fronts) {
     // Gaps alone: a node's gap is the least clearance of its particles, the
@@ -325,15 +338,70 @@ void GridCoupling::scanNearSolids(const std::vector<ParticleSet>& sets, const Gr
   size_t widest = 0;
   for (const auto& c : layout.colour_blocks) widest = std::max(widest, c.size());
 #pragma omp parallel if (widest > 1)
-  for (int colour = 0; colour < 8; ++colour) {
-    const std::vector<uint32_t>& blocks = layout.colour_blocks[size_t(colour)];
-    std::vector<FrontParticle>* list = &front_lists_[size_t(omp_get_thread_num())];
-    // Blocks of one colour share no node: the mins and sums need no
-    // atomics, and each node's sums are added in colour order, block by
-    // block, the same for any thread count.
+  {
+    std::vector<FrontSums> halo(kHaloNodes);
+    for (int colour = 0; colour < 8; ++colour) {
+      const std::vector<uint32_t>& blocks = layout.colour_blocks[size_t(colour)];
+      std::vector<FrontParticle>* list = &front_lists_[size_t(omp_get_thread_num())];
+      // Blocks of one colour share no node: the mins and sums need no
+      // atomics, and each node's sums are added in colour order, block by
+      // block, the same for any thread count.
 #pragma omp for schedule(dynamic, 1)
-    for (int64_t k = 0; k < int64_t(blocks.size()); ++k)
-      scanBlock(blocks[size_t(k)], gap_.data(), list);
+      for (int64_t k = 0; k < int64_t(blocks.size()); ++k)
+        scanBlock(blocks[size_t(k)], colour, gap_.data(), list, halo.data());
+    }
+  }
+}
+
+void GridCoupling::addFrontHalo(uint32_t pb, int colour, const GridLayout& layout,
+                                FrontSums* halo) {
+  // Each halo node of a moving solid's slot: to its node, or, on a grid
+  // block whose sums cross processes, to that block's layer of this colour.
+  for (int x = 0; x < kHaloSize; ++x)
+    for (int y = 0; y < kHaloSize; ++y)
+      for (int z = 0; z < kHaloSize; ++z) {
+        FrontSums& h = halo[haloNode(x, y, z)];
+        const uint32_t gb = layout.neighbours[pb][size_t(neighbourOf(Vec3i::Zero(), x, y, z))];
+        const int32_t sl = block_slot_[gb];
+        if (sl >= 0 && slot_moving_[size_t(sl)]) {
+          const int local = localNode(x, y, z);
+          const int32_t layer = domain_ ? layout.layered[gb] : -1;
+          if (layer < 0) {
+            FrontSums& f = front_[size_t(sl) * kBlockNodes + size_t(local)];
+            f.mf += h.mf;
+            f.ma += h.ma;
+            for (int e = 0; e < 3; ++e) f.pf[e] += h.pf[e], f.pa[e] += h.pa[e];
+          } else {
+            const size_t at = (size_t(layer) * 8 + size_t(colour)) * kBlockNodes + size_t(local);
+            front_layers_[0][at] = GridNode{h.mf, {h.pf[0], h.pf[1], h.pf[2]}};
+            front_layers_[1][at] = GridNode{h.ma, {h.pa[0], h.pa[1], h.pa[2]}};
+          }
+        }
+        h = FrontSums{};
+      }
+}
+
+void GridCoupling::sumFrontsAcrossProcesses(const GridLayout& layout) {
+  // The layers of the grid blocks on the cut go to each block's owner,
+  // which adds them in colour order (as P2G's sums), and come back whole to
+  // every process that holds the block: the field of the material in front
+  // and of all of it, as two grids.
+  std::array<std::vector<GridNode>, 2> sums;
+  for (int f = 0; f < 2; ++f) {
+    sums[size_t(f)].assign(layout.gridBlocks() * size_t(kBlockNodes), GridNode{0, {0, 0, 0}});
+    domain_->sumGhosts(layout, sums[size_t(f)], front_layers_[size_t(f)]);
+    domain_->returnHalo(layout, sums[size_t(f)]);
+  }
+  if (front_.empty()) return;
+  for (size_t s = 0; s < slot_block_.size(); ++s) {
+    const uint32_t gb = slot_block_[s];
+    if (!slot_moving_[s] || layout.layered[gb] < 0) continue;
+    for (int k = 0; k < kBlockNodes; ++k) {
+      const GridNode& a = sums[0][size_t(gb) * kBlockNodes + size_t(k)];
+      const GridNode& b = sums[1][size_t(gb) * kBlockNodes + size_t(k)];
+      front_[s * kBlockNodes + size_t(k)] =
+          FrontSums{a.m, {a.v[0], a.v[1], a.v[2]}, b.m, {b.v[0], b.v[1], b.v[2]}};
+    }
   }
 }
 

@@ -91,7 +91,8 @@ class GridCoupling {
   //
   // With `fronts`, the same pass prepares two fields on moving solids'
   // nodes (sim/coupling/front_fields.cpp): each node's sums of the
-  // material in front of its face and of all of it.
+  // material in front of its face and of all of it, summed across
+  // processes in colour order where the run is split.
   void measureNearSolids(const std::vector<ParticleSet>& sets, const GridLayout& layout,
                          const TransferParams& p, bool gaps, bool fronts);
   // After collide(): each field's velocity; after the MPM gather,
@@ -260,6 +261,16 @@ class GridCoupling {
   std::vector<std::vector<FrontParticle>> front_lists_;  // per thread of the scan
   void correctFront(std::vector<ParticleSet>& sets, const GridLayout& layout,
                     const TransferParams& p, float c_scale, const FrontParticle& fp) const;
+  // A particle block's halo: the 6^3 nodes its particles' stencils reach.
+  static constexpr int kHaloSize = kBlockSize + 2, kHaloNodes = kHaloSize * kHaloSize * kHaloSize;
+  static int haloNode(int x, int y, int z) { return (x * kHaloSize + y) * kHaloSize + z; }
+  // Adds particle block pb's halo of field sums (then zeroes it) to its
+  // nodes, or to the layers of colour `colour` where the run is split.
+  void addFrontHalo(uint32_t pb, int colour, const GridLayout& layout, FrontSums* halo);
+  // Split over processes: the fields' sums of the grid blocks on the cut,
+  // added by their owners in colour order and returned whole.
+  void sumFrontsAcrossProcesses(const GridLayout& layout);
+  std::array<std::vector<GridNode>, 2> front_layers_;  // front and whole field, per layer node
   std::vector<uint32_t> moving_;  // shared nodes of one moving rigid body
   bool fixed_built_ = false;
   std::vector<uint64_t> fixed_keys_;     // grid blocks fixed solids reach, sorted
