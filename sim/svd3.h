@@ -599,6 +599,77 @@ TRIAD_SVD3_INLINE double laneMax(const PackD& a) {
 }  // namespace svd3_detail
 
 #if defined(__GNUC__)
+// The polar rotation of up to eight double matrices already in vector
+// lanes, f (column-major, lanes from `count` on copies of a real one) into
+// r: polarRotationLanes' iteration, for callers that build F in the lanes.
+inline void polarRotationOfLanes(int count, const svd3_detail::PackD (&f)[9],
+                                 svd3_detail::PackD (&r)[9]) {
+  using svd3_detail::PackD;
+  constexpr int L = 8;
+  // Lanes the iteration can take (det F > 1e-3 |F|^3); lanes past count
+  // iterate from the identity, as the fallback's do.
+  PackD c[9];
+  svd3_detail::cofactorLanes(f, c);
+  const PackD det = f[0] * c[0] + f[1] * c[1] + f[2] * c[2];
+  PackD norm2 = f[0] * f[0];
+  for (int e = 1; e < 9; ++e) norm2 += f[e] * f[e];
+  alignas(64) double det_l[L], norm2_l[L], start[9][L];
+  std::memcpy(det_l, &det, sizeof(det_l));
+  std::memcpy(norm2_l, &norm2, sizeof(norm2_l));
+  std::memcpy(start, f, sizeof(start));
+  bool direct[L], all_direct = true;
+  for (int l = 0; l < L; ++l) {
+    const double scale = std::sqrt(norm2_l[l]);
+    const bool pad = l >= count;
+    direct[l] = pad || det_l[l] > 1e-3 * scale * scale * scale;
+    all_direct &= direct[l];
+    if (!direct[l] || pad)
+      for (int e = 0; e < 9; ++e) start[e][l] = e % 4 == 0 ? 1.0 : 0.0;
+  }
+  PackD x[9];
+  std::memcpy(x, start, sizeof(x));
+  bool scaled = true;
+  for (int it = 0; it < 20; ++it) {
+    svd3_detail::cofactorLanes(x, c);
+    const PackD inv_det = 1.0 / (x[0] * c[0] + x[1] * c[1] + x[2] * c[2]);
+    for (int e = 0; e < 9; ++e) c[e] *= inv_det;
+    PackD half_g = PackD{} + 0.5, half_inv_g = PackD{} + 0.5;
+    if (scaled) {
+      PackD xx = x[0] * x[0], cc = c[0] * c[0];
+      for (int e = 1; e < 9; ++e) xx += x[e] * x[e], cc += c[e] * c[e];
+      PackD g = cc / xx;
+      svd3_detail::sqrtInPlace(g);
+      svd3_detail::sqrtInPlace(g);
+      half_g = 0.5 * g;
+      half_inv_g = 0.5 / g;
+    }
+    PackD d2 = PackD{};
+    for (int e = 0; e < 9; ++e) {
+      const PackD next = half_g * x[e] + half_inv_g * c[e];
+      d2 += (next - x[e]) * (next - x[e]);
+      x[e] = next;
+    }
+    const double worst = svd3_detail::laneMax(d2);
+    if (worst < 1e-14) break;
+    if (worst < 1e-4) scaled = false;
+  }
+  if (!all_direct) {
+    // The lanes the iteration could not take: the SVD's rotation.
+    alignas(64) double in[9][L];
+    std::memcpy(in, f, sizeof(in));
+    std::memcpy(start, x, sizeof(x));
+    for (int l = 0; l < count; ++l) {
+      if (direct[l]) continue;
+      Mat3d A;
+      for (int e = 0; e < 9; ++e) A.data()[e] = in[e][l];
+      const Mat3d Rl = polarRotation(A);
+      for (int e = 0; e < 9; ++e) start[e][l] = Rl.data()[e];
+    }
+    std::memcpy(x, start, sizeof(x));
+  }
+  std::memcpy(r, x, sizeof(x));
+}
+
 // The polar rotation of double F[0..n), eight matrices at a time across
 // vector lanes, with the lanes handed on: for each pass over up to eight
 // matrices from F[b], fn(b, count, f, r) receives F and R as nine lane
@@ -616,59 +687,14 @@ inline void polarRotationLanes(int n, const Mat3d* F, Fn&& fn) {
   constexpr int L = 8;
   for (int b = 0; b < n; b += L) {
     const int count = n - b < L ? n - b : L;
-    alignas(64) double in[9][L], start[9][L];
-    bool direct[L], all_direct = true;
+    alignas(64) double in[9][L];
     for (int l = 0; l < L; ++l) {
       const Mat3d& A = F[b + (l < count ? l : 0)];
-      const double scale = A.norm();
-      // Lanes past count iterate from the identity, as the fallback's do.
-      const bool pad = l >= count;
-      direct[l] = pad || A.determinant() > 1e-3 * scale * scale * scale;
-      all_direct &= direct[l];
-      for (int e = 0; e < 9; ++e) {
-        in[e][l] = A.data()[e];
-        start[e][l] = direct[l] && !pad ? A.data()[e] : (e % 4 == 0 ? 1.0 : 0.0);
-      }
+      for (int e = 0; e < 9; ++e) in[e][l] = A.data()[e];
     }
     PackD f[9], x[9];
     std::memcpy(f, in, sizeof(f));
-    std::memcpy(x, start, sizeof(x));
-    bool scaled = true;
-    for (int it = 0; it < 20; ++it) {
-      PackD c[9];
-      svd3_detail::cofactorLanes(x, c);
-      const PackD inv_det = 1.0 / (x[0] * c[0] + x[1] * c[1] + x[2] * c[2]);
-      for (int e = 0; e < 9; ++e) c[e] *= inv_det;
-      PackD half_g = PackD{} + 0.5, half_inv_g = PackD{} + 0.5;
-      if (scaled) {
-        PackD xx = x[0] * x[0], cc = c[0] * c[0];
-        for (int e = 1; e < 9; ++e) xx += x[e] * x[e], cc += c[e] * c[e];
-        PackD g = cc / xx;
-        svd3_detail::sqrtInPlace(g);
-        svd3_detail::sqrtInPlace(g);
-        half_g = 0.5 * g;
-        half_inv_g = 0.5 / g;
-      }
-      PackD d2 = PackD{};
-      for (int e = 0; e < 9; ++e) {
-        const PackD next = half_g * x[e] + half_inv_g * c[e];
-        d2 += (next - x[e]) * (next - x[e]);
-        x[e] = next;
-      }
-      const double worst = svd3_detail::laneMax(d2);
-      if (worst < 1e-14) break;
-      if (worst < 1e-4) scaled = false;
-    }
-    if (!all_direct) {
-      // The lanes the iteration could not take: the SVD's rotation.
-      std::memcpy(start, x, sizeof(x));
-      for (int l = 0; l < count; ++l) {
-        if (direct[l]) continue;
-        const Mat3d Rl = polarRotation(F[b + l]);
-        for (int e = 0; e < 9; ++e) start[e][l] = Rl.data()[e];
-      }
-      std::memcpy(x, start, sizeof(x));
-    }
+    polarRotationOfLanes(count, f, x);
     fn(b, count, f, x);
   }
 }

@@ -78,47 +78,67 @@ constexpr size_t kParallelTets = 4096;
 #if defined(__GNUC__)
 // H = -V P Dm^-T of every fixed-corotated element, P = 2 mu (F - R) +
 // lambda (J - 1) cof(F) (FixedCorotated::firstPiola), eight elements at a
-// time in the polar rotation's vector lanes. Column-major lanes: [3 j + i]
-// is entry (i, j).
+// time in vector lanes from the nodes' positions on: F = D Dm^-1, its polar
+// rotation, P and H. Column-major lanes: [3 j + i] is entry (i, j).
 void fixedCorotatedForces(const FemBody& b, const FixedCorotated<double>& mat,
                           const std::vector<Vec3d>& y) {
   using svd3_detail::PackD;
-  constexpr int64_t kChunk = 64;
+  constexpr int L = 8;
   const auto& tets = b.mesh.tets;
-  const int64_t chunks = (int64_t(tets.size()) + kChunk - 1) / kChunk;
+  const int64_t n = int64_t(tets.size()), groups = (n + L - 1) / L;
+  // The rest shape in lanes, once; lanes past the last element repeat
+  // the group's first.
+  if (b.minus_v_lanes_.size() != size_t(groups) * L) {
+    b.dm_lanes_.assign(size_t(groups) * 9 * L, 0.0);
+    b.minus_v_lanes_.assign(size_t(groups) * L, 0.0);
+    for (int64_t g = 0; g < groups; ++g)
+      for (int l = 0; l < L; ++l) {
+        const int64_t t = g * L + l < n ? g * L + l : g * L;
+        b.minus_v_lanes_[size_t(g * L + l)] = -b.volume[size_t(t)];
+        for (int e = 0; e < 9; ++e)
+          b.dm_lanes_[size_t((g * 9 + e) * L + l)] = b.dm_inv[size_t(t)].data()[e];
+      }
+  }
 #pragma omp parallel for schedule(static) if (tets.size() > kParallelTets)
-  for (int64_t k = 0; k < chunks; ++k) {
-    const int64_t t0 = k * kChunk, t1 = std::min(int64_t(tets.size()), t0 + kChunk);
-    Mat3d Fs[kChunk];
-    for (int64_t t = t0; t < t1; ++t) Fs[t - t0] = edges(y, tets[t]) * b.dm_inv[t];
-    polarRotationLanes(
-        int(t1 - t0), Fs, [&](int s, int count, const PackD(&f)[9], const PackD(&r)[9]) {
-          alignas(64) double lanes[9][8];
-          double minus_v[8];
-          for (int l = 0; l < 8; ++l) {
-            const int64_t t = t0 + s + (l < count ? l : 0);
-            minus_v[l] = -b.volume[size_t(t)];
-            for (int e = 0; e < 9; ++e) lanes[e][l] = b.dm_inv[size_t(t)].data()[e];
-          }
-          PackD d[9], mv;
-          std::memcpy(d, lanes, sizeof(d));
-          std::memcpy(&mv, minus_v, sizeof(mv));
-          // cof(F), column-major, and J along its first column.
-          PackD c[9];
-          svd3_detail::cofactorLanes(f, c);
-          const PackD J = f[0] * c[0] + f[1] * c[1] + f[2] * c[2];
-          const PackD volumetric = mat.lambda * (J - 1.0);
-          PackD P[9];
-          for (int e = 0; e < 9; ++e) P[e] = 2.0 * mat.mu * (f[e] - r[e]) + volumetric * c[e];
-          // H(i, k) = -V sum_j P(i, j) Dm^-1(k, j).
-          PackD H[9];
-          for (int kk = 0; kk < 3; ++kk)
-            for (int i = 0; i < 3; ++i)
-              H[3 * kk + i] = mv * (P[i] * d[kk] + P[3 + i] * d[3 + kk] + P[6 + i] * d[6 + kk]);
-          std::memcpy(lanes, H, sizeof(H));
-          for (int l = 0; l < count; ++l)
-            for (int e = 0; e < 9; ++e) b.h_[size_t(t0 + s + l)].data()[e] = lanes[e][l];
-        });
+  for (int64_t g = 0; g < groups; ++g) {
+    const int64_t t0 = g * L;
+    const int count = int(std::min<int64_t>(L, n - t0));
+    // The edges D (columns x1 - x0, x2 - x0, x3 - x0), lane by lane.
+    alignas(64) double edge[9][L];
+    for (int l = 0; l < L; ++l) {
+      const auto& nd = tets[size_t(t0 + (l < count ? l : 0))];
+      const Vec3d& p0 = y[size_t(nd[0])];
+      for (int k = 0; k < 3; ++k) {
+        const Vec3d d = y[size_t(nd[k + 1])] - p0;
+        for (int i = 0; i < 3; ++i) edge[3 * k + i][l] = d[i];
+      }
+    }
+    PackD D[9], d[9], mv;
+    std::memcpy(D, edge, sizeof(D));
+    std::memcpy(d, &b.dm_lanes_[size_t(g * 9 * L)], sizeof(d));
+    std::memcpy(&mv, &b.minus_v_lanes_[size_t(g * L)], sizeof(mv));
+    // F(i, j) = sum_k D(i, k) Dm^-1(k, j).
+    PackD f[9];
+    for (int j = 0; j < 3; ++j)
+      for (int i = 0; i < 3; ++i)
+        f[3 * j + i] = D[i] * d[3 * j] + D[3 + i] * d[3 * j + 1] + D[6 + i] * d[3 * j + 2];
+    PackD r[9];
+    polarRotationOfLanes(count, f, r);
+    // cof(F), column-major, and J along its first column.
+    PackD c[9];
+    svd3_detail::cofactorLanes(f, c);
+    const PackD J = f[0] * c[0] + f[1] * c[1] + f[2] * c[2];
+    const PackD volumetric = mat.lambda * (J - 1.0);
+    PackD P[9];
+    for (int e = 0; e < 9; ++e) P[e] = 2.0 * mat.mu * (f[e] - r[e]) + volumetric * c[e];
+    // H(i, k) = -V sum_j P(i, j) Dm^-1(k, j).
+    PackD H[9];
+    for (int kk = 0; kk < 3; ++kk)
+      for (int i = 0; i < 3; ++i)
+        H[3 * kk + i] = mv * (P[i] * d[kk] + P[3 + i] * d[3 + kk] + P[6 + i] * d[6 + kk]);
+    std::memcpy(edge, H, sizeof(H));
+    for (int l = 0; l < count; ++l)
+      for (int e = 0; e < 9; ++e) b.h_[size_t(t0 + l)].data()[e] = edge[e][l];
   }
 }
 #endif

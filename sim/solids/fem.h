@@ -74,6 +74,10 @@ struct FemBody {
   // order (CSR, built by the first forces()): each node sums its forces on
   // its own, in the order a serial loop over the elements would.
   mutable std::vector<uint32_t> incidence_start_, incidence_;
+  // Per group of eight elements: Dm^-1 (nine entries, each eight lanes)
+  // and -V (eight lanes), built by the first forces(): what the
+  // fixed-corotated forces read in vector lanes.
+  mutable std::vector<double> dm_lanes_, minus_v_lanes_;
 
   size_t nodes() const { return x.size(); }
   double totalMass() const;
