@@ -495,13 +495,14 @@ void Solver::predictSolids(double dt) {
     for (auto* a : {&points_.x, &points_.v, &points_.n}) a->resize(first + nodes);
     points_.phi.resize(first + nodes);
     points_.point_mass.resize(first + nodes);
-    // The deformed normals (a 3x3 inverse each) are most of this loop.
+    // The deformed normals turn with F^-T, which the explicit forces above
+    // kept for the elements that turn them.
 #pragma omp parallel for schedule(static) if (nodes > 2048)
     for (int64_t i = 0; i < int64_t(nodes); ++i) {
       const size_t q = first + size_t(i);
       points_.x[q] = fem.x[size_t(i)].cast<float>();
       points_.v[q] = fem.v[size_t(i)].cast<float>();
-      points_.n[q] = e.normal(size_t(i)).cast<float>();
+      points_.n[q] = e.normalAfterForces(size_t(i)).cast<float>();
       points_.phi[q] = e.phi0[size_t(i)];
       points_.point_mass[q] = float(fem.mass[size_t(i)]);
     }

@@ -24,7 +24,16 @@ int ElasticSolid::nodeAt(const Eigen::Vector3i& ijk) const {
 Vec3d ElasticSolid::normal(size_t i) const {
   const size_t t = size_t(node_tet[i]);
   const Mat3d F = edges(fem.x, fem.mesh.tets[t]) * fem.dm_inv[t];
-  const Vec3d m = F.inverse().transpose() * normal0[i];
+  return turned(i, F.inverse().transpose());
+}
+
+Vec3d ElasticSolid::normalAfterForces(size_t i) const {
+  const Mat3d* kept = fem.keptInverseTranspose(size_t(node_tet[i]));
+  return kept ? turned(i, *kept) : normal(i);
+}
+
+Vec3d ElasticSolid::turned(size_t i, const Mat3d& inv_t) const {
+  const Vec3d m = inv_t * normal0[i];
   const double len = m.norm();
   return len > 0 && std::isfinite(len) ? Vec3d(m / len) : normal0[i];
 }
@@ -65,6 +74,7 @@ ElasticSolid makeElasticSolid(int object, const std::string& name, const Collisi
     const double len = n.norm();
     n = len > 0 ? Vec3d(n / len) : Vec3d(0, 1, 0);
   }
+  e.fem.keepInverseTransposes(e.node_tet);
   // Node distances: a node with fewer than eight cells around it lies on
   // the boundary. A cell's six tetrahedra are consecutive.
   std::vector<int> cells(m.nodes.size(), 0), last(m.nodes.size(), -1);

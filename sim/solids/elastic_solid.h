@@ -43,8 +43,14 @@ struct ElasticSolid {
 
   // Outward normal of node i now: F^-T N, normalised.
   Vec3d normal(size_t i) const;
+  // The same from the F^-T that the last fem.forces() kept, where it kept
+  // one (only right after forces(), before the nodes move).
+  Vec3d normalAfterForces(size_t i) const;
   // The surface moved with the mesh.
   TriSurface worldSurface() const;
+
+ private:
+  Vec3d turned(size_t i, const Mat3d& inv_t) const;  // F^-T N of node i, normalised
 };
 
 // Builds the solid from its collision samples (cells of side h centred on

@@ -81,7 +81,7 @@ constexpr size_t kParallelTets = 4096;
 // time in vector lanes from the nodes' positions on: F = D Dm^-1, its polar
 // rotation, P and H. Column-major lanes: [3 j + i] is entry (i, j).
 void fixedCorotatedForces(const FemBody& b, const FixedCorotated<double>& mat,
-                          const std::vector<Vec3d>& y) {
+                          const std::vector<Vec3d>& y, bool keep) {
   using svd3_detail::PackD;
   constexpr int L = 8;
   const auto& tets = b.mesh.tets;
@@ -139,6 +139,17 @@ void fixedCorotatedForces(const FemBody& b, const FixedCorotated<double>& mat,
     std::memcpy(edge, H, sizeof(H));
     for (int l = 0; l < count; ++l)
       for (int e = 0; e < 9; ++e) b.h_[size_t(t0 + l)].data()[e] = edge[e][l];
+    // F^-T = cof(F) / J of the elements whose F^-T is asked for.
+    bool kept = false;
+    for (int l = 0; keep && l < count; ++l) kept |= b.kept_slot_[size_t(t0 + l)] >= 0;
+    if (kept) {
+      const PackD inv_j = 1.0 / J;
+      for (int e = 0; e < 9; ++e) c[e] *= inv_j;
+      std::memcpy(edge, c, sizeof(c));
+      for (int l = 0; l < count; ++l)
+        if (const int32_t slot = b.kept_slot_[size_t(t0 + l)]; slot >= 0)
+          for (int e = 0; e < 9; ++e) b.kept_inv_t_[size_t(slot)].data()[e] = edge[e][l];
+    }
   }
 }
 #endif
@@ -152,6 +163,7 @@ void elementForces(const FemBody& b, const std::vector<Vec3d>& y, const std::vec
                    std::vector<Vec3d>& f) {
   const auto& tets = b.mesh.tets;
   b.h_.resize(tets.size());
+  b.kept_fresh_ = false;
   // The material is visited once for the whole body, not per element.
   std::visit(
       [&](const auto& mat) {
@@ -162,7 +174,9 @@ void elementForces(const FemBody& b, const std::vector<Vec3d>& y, const std::vec
         if constexpr (std::is_same_v<Model, FixedCorotated<double>>) {
 #if defined(__GNUC__)
           if (!vel) {
-            fixedCorotatedForces(b, mat, y);
+            const bool keep = &y == &b.x && !b.kept_slot_.empty();
+            fixedCorotatedForces(b, mat, y, keep);
+            b.kept_fresh_ = keep;
             return;
           }
 #endif
@@ -235,6 +249,20 @@ void FemBody::forces(std::vector<Vec3d>& f) const {
 
 void FemBody::forcesAt(const std::vector<Vec3d>& y, std::vector<Vec3d>& f) const {
   elementForces(*this, y, nullptr, f);
+}
+
+void FemBody::keepInverseTransposes(const std::vector<int>& elements) {
+  kept_slot_.assign(mesh.tets.size(), -1);
+  int32_t slots = 0;
+  for (const int t : elements)
+    if (kept_slot_[size_t(t)] < 0) kept_slot_[size_t(t)] = slots++;
+  kept_inv_t_.assign(size_t(slots), Mat3d::Zero());
+  kept_fresh_ = false;
+}
+
+const Mat3d* FemBody::keptInverseTranspose(size_t t) const {
+  if (!kept_fresh_ || kept_slot_.empty() || kept_slot_[t] < 0) return nullptr;
+  return &kept_inv_t_[size_t(kept_slot_[t])];
 }
 
 double FemBody::elasticEnergy() const {

@@ -78,6 +78,13 @@ struct FemBody {
   // and -V (eight lanes), built by the first forces(): what the
   // fixed-corotated forces read in vector lanes.
   mutable std::vector<double> dm_lanes_, minus_v_lanes_;
+  // Elements whose F^-T the fixed-corotated lanes keep as they form the
+  // forces (an elastic solid's node normals turn with one element each, and
+  // forming its F again cost a tenth of the solid's step): per element its
+  // slot or -1; what the last forces() kept, and whether it kept them.
+  std::vector<int32_t> kept_slot_;
+  mutable std::vector<Mat3d> kept_inv_t_;
+  mutable bool kept_fresh_ = false;
 
   size_t nodes() const { return x.size(); }
   double totalMass() const;
@@ -86,6 +93,13 @@ struct FemBody {
   void forces(std::vector<Vec3d>& f) const;
   // The same at node positions y.
   void forcesAt(const std::vector<Vec3d>& y, std::vector<Vec3d>& f) const;
+  // Elements whose F^-T forces() keeps when it can (fixed-corotated
+  // elements without damping, formed in vector lanes).
+  void keepInverseTransposes(const std::vector<int>& elements);
+  // F^-T of element t as the last forces() formed it at x, or nullptr if
+  // it kept none (another model, damping, or forcesAt since). Valid until x
+  // moves.
+  const Mat3d* keptInverseTranspose(size_t t) const;
   double elasticEnergy() const;
   double kineticEnergy() const;
   // Largest stable explicit step: cfl times the time a dilatational wave
