@@ -42,6 +42,11 @@ void printSummary(const RunRecord& rec, const std::string& out_dir) {
   std::printf("wall time %.2f s:", rec.wall_seconds);
   for (const auto& [name, s] : rec.phase_seconds) std::printf(" %s %.2f", name.c_str(), s);
   const double solve = rec.phase_seconds.count("solve") ? rec.phase_seconds.at("solve") : 0.0;
+  if (!rec.solids_seconds.empty()) {
+    std::printf("\nsolids by part:");
+    for (const auto& [name, s] : rec.solids_seconds)
+      if (s > 0.0) std::printf(" %s %.2f", name.c_str(), s);
+  }
   std::printf("\n%.3g particle-substeps/s on %d threads, peak memory %.1f MiB\n",
               solve > 0 ? double(rec.particle_steps) / solve : 0.0, rec.threads,
               double(rec.peak_rss_bytes) / (1024.0 * 1024.0));
@@ -342,6 +347,9 @@ int runScene(const RunOptions& options_in) {
                          {"solve", t.total()},
                          {"output", output_seconds},
                          {"writing", output.busySeconds()}};
+    rec.solids_seconds.clear();
+    if (t.solids > 0.0)
+      for (const auto& [name, s] : t.solid_parts.parts()) rec.solids_seconds.emplace_back(name, s);
     rec.particles = sim.particles;
     rec.emitted = sim.emitted;
     rec.removed = sim.removed;

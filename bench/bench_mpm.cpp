@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <string>
+#include <utility>
 
 #include "export/run_record.h"
 #include "import/mesh_sampler.h"
@@ -63,5 +64,12 @@ int main(int argc, char** argv) {
       sim_time, wall, rate, double(peak) / (1024.0 * 1024.0), double(peak - rss_before) / double(n),
       double(world.particleBytes() + solver.bytes()) / double(n), t.bin, t.p2g, t.grid, t.g2p,
       t.solids);
+  if (t.solids > 0.0) {
+    std::printf("solids_parts[");
+    const char* sep = "";
+    for (const auto& [name, s] : t.solid_parts.parts())
+      std::printf("%s%s=%.2f", std::exchange(sep, " "), name, s);
+    std::printf("]\n");
+  }
   return 0;
 }

@@ -76,6 +76,11 @@ void writeRunRecord(const std::string& path, const RunRecord& rec) {
   nlohmann::ordered_json phases = nlohmann::ordered_json::object();
   for (const auto& [name, s] : rec.phase_seconds) phases[name] = s;
   j["wall_seconds"] = {{"total", rec.wall_seconds}, {"phases", phases}};
+  if (!rec.solids_seconds.empty()) {
+    nlohmann::ordered_json parts = nlohmann::ordered_json::object();
+    for (const auto& [name, s] : rec.solids_seconds) parts[name] = s;
+    j["wall_seconds"]["solids_parts"] = parts;
+  }
   j["estimate"] = {{"wall_seconds", rec.estimated_wall_seconds},
                    {"rate_particle_substeps_per_s", rec.estimated_rate},
                    {"rate_from", rec.rate_from},

@@ -40,6 +40,8 @@ struct RunRecord {
   uint64_t particle_steps = 0;
   uint64_t sleeping_steps = 0;  // particle-substeps skipped by sleeping material
   std::map<std::string, double> phase_seconds;  // solver phases, output, setup
+  // The solids phase by part, in the step's order (empty without solids).
+  std::vector<std::pair<std::string, double>> solids_seconds;
   double wall_seconds = 0.0;
   // The estimate made before the first frame: solving wall time at the
   // rate of the probe ("probe") or the fixed one ("fixed"), and what the

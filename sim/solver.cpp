@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <optional>
 #include <sstream>
 
 #include "sim/solids/elastic_contact.h"
@@ -386,7 +387,9 @@ void Solver::predictSolids(double dt) {
     points_.phi.shrink_to_fit();
   }
   const Vec3d g(world_.scene.gravity[0], world_.scene.gravity[1], world_.scene.gravity[2]);
+  SolidsTimes& parts = times_.solid_parts;
   for (size_t k = 0; k < world_.bodies.size(); ++k) {
+    PhaseTimer part(parts.poses);
     RigidBody& b = world_.bodies[k];
     if (k < body_asleep_.size() && body_asleep_[k]) {
       b.state.v.setZero();  // held by the sleeping material around it
@@ -447,6 +450,7 @@ void Solver::predictSolids(double dt) {
   // Elastic solids: the explicit FEM step's velocities are their v_q*.
   for (ElasticSolid& e : world_.elastics) {
     FemBody& fem = e.fem;
+    std::optional<PhaseTimer> part(std::in_place, parts.elastic_forces);
     if (e.implicit) {
       FemContacts contacts = elasticContacts(e, dt);
       // The bodies take the reaction of the contacts in the solve. A body
@@ -486,6 +490,7 @@ void Solver::predictSolids(double dt) {
       fem.forces(fem_force_);
       for (size_t i = 0; i < fem.nodes(); ++i) fem.v[i] += dt * (fem_force_[i] / fem.mass[i] + g);
     }
+    part.emplace(parts.poses);
     points_.addSolid(0.0f, e.friction, SolidKind::Moving, 0.0);
     // Each node carries its distance at rest along its normal now, as a
     // rigid sample does: the distance's normal and the contact reach apply
@@ -574,7 +579,7 @@ FemContacts Solver::elasticContacts(const ElasticSolid& e, double dt) {
 }
 
 void Solver::scatterSolids() {
-  PhaseTimer timer(times_.solids);
+  PhaseTimer timer(times_.solids), part(times_.solid_parts.scatter);
   coupling_->scatter(points_, layout_, params_);
   coupling_->keepPreUpdate(grid_);
 }
@@ -583,8 +588,12 @@ void Solver::collideSolids() {
   PhaseTimer timer(times_.solids);
   const SolverDesc& s = world_.scene.solver;
   const bool three = s.coupling == CouplingScheme::ThreeGrid;
-  coupling_->measureNearSolids(world_.sets, layout_, params_, three && s.contact_gap,
-                               three && s.front_fields);
+  {
+    PhaseTimer part(times_.solid_parts.gaps);
+    coupling_->measureNearSolids(world_.sets, layout_, params_, three && s.contact_gap,
+                                 three && s.front_fields);
+  }
+  PhaseTimer part(times_.solid_parts.collide);
   coupling_->collide(grid_, points_, params_);
   coupling_->finishFronts(grid_);
   for (size_t b = 0; b < world_.bodies.size(); ++b) {
@@ -596,12 +605,12 @@ void Solver::collideSolids() {
 }
 
 void Solver::correctFronts() {
-  PhaseTimer timer(times_.solids);
+  PhaseTimer timer(times_.solids), part(times_.solid_parts.fronts);
   coupling_->correctFronts(world_.sets, layout_, params_);
 }
 
 void Solver::pushOutOfSolids(double dt) {
-  PhaseTimer timer(times_.solids);
+  PhaseTimer timer(times_.solids), part(times_.solid_parts.push_out);
   // The grid collision stops material approaching a body at shared nodes,
   // but interpolation lets particles at the surface creep in, slowly.
   // Particles found inside a body move back to its surface and lose their
@@ -728,7 +737,9 @@ void Solver::pushOutOfSolids(double dt) {
 
 void Solver::advanceSolids(double dt) {
   PhaseTimer timer(times_.solids);
+  std::optional<PhaseTimer> part(std::in_place, times_.solid_parts.gather);
   coupling_->gather(points_, params_);
+  part.emplace(times_.solid_parts.bodies);
   // Each body takes the momentum and angular momentum its collision
   // particles gained. Only the change is read back: a body that touches no
   // material keeps its motion exactly, instead of losing spin to the
@@ -782,6 +793,7 @@ void Solver::advanceSolids(double dt) {
       throw SimulationError(msg.str());
     }
   }
+  part.emplace(times_.solid_parts.elastic);
   for (size_t k = 0; k < world_.elastics.size(); ++k)
     constrainElastic(world_.elastics[k], points_.begin[world_.bodies.size() + k], dt);
   if (world_.elastics.size() > 1) resolveElasticContacts(world_.elastics, dt);
@@ -790,17 +802,22 @@ void Solver::advanceSolids(double dt) {
 
 void Solver::constrainElastic(ElasticSolid& e, size_t first, double dt) {
   FemBody& fem = e.fem;
-  // Node velocities take what the grid gave them (step 8).
-  for (size_t i = 0; i < fem.nodes(); ++i) fem.v[i] += points_.dv[first + i].cast<double>();
-  // Walls: a node may close at most its gap in this step (as rigid
-  // samples do); the normal velocity it loses bounds its friction.
+  const int64_t nodes = int64_t(fem.nodes());
+  // Each node on its own (in parallel: a solid of a few thousand nodes took
+  // a serial stretch long enough for the other threads to fall asleep):
+  // what the grid gave it (step 8), then the walls. A node may close at
+  // most its gap to a wall in this step (as rigid samples do); the normal
+  // velocity it loses bounds its friction.
   const double mu = wallFriction();
-  for (size_t i = 0; i < fem.nodes(); ++i) {
-    Vec3d& v = fem.v[i];
+#pragma omp parallel for schedule(static) if (nodes > 2048)
+  for (int64_t i = 0; i < nodes; ++i) {
+    Vec3d& v = fem.v[size_t(i)];
+    v += points_.dv[first + size_t(i)].cast<double>();
     for (int d = 0; d < 3; ++d)
       for (int side = 0; side < 2; ++side) {
         const double sign = side == 0 ? 1.0 : -1.0;  // inward normal along axis d
-        const double gap = side == 0 ? fem.x[i][d] - contact_.lo[d] : contact_.hi[d] - fem.x[i][d];
+        const double gap =
+            side == 0 ? fem.x[size_t(i)][d] - contact_.lo[d] : contact_.hi[d] - fem.x[size_t(i)][d];
         const double vn = sign * v[d];
         const double limit = -std::max(0.0, gap) / dt;
         if (vn >= limit) continue;
@@ -818,16 +835,34 @@ void Solver::constrainElastic(ElasticSolid& e, size_t first, double dt) {
   // Rigid bodies: a node inside one is pushed back to its surface, and its
   // sliding along it is reduced by Coulomb friction (the pair's geometric
   // mean) within what the push bounds; the body takes the momentum.
-  // (Implicit solids met them in their solve.)
+  // (Implicit solids met them in their solve.) The nodes inside are found
+  // in parallel (where a node ends depends on the body's pose, not on its
+  // velocity), then pushed in node order, each against the body's velocity
+  // that the nodes before it left.
   for (size_t k = 0; k < world_.bodies.size() && !e.implicit; ++k) {
     RigidBody& b = world_.bodies[k];
     const Mat3d R = b.rotation();
     const double mu_pair = std::sqrt(double(e.friction) * double(b.friction));
-    for (size_t i = 0; i < fem.nodes(); ++i) {
+    std::vector<uint32_t> inside;
+#pragma omp parallel if (nodes > 2048)
+    {
+      std::vector<uint32_t> mine;
+#pragma omp for schedule(static) nowait
+      for (int64_t i = 0; i < nodes; ++i) {
+        double phi;
+        Vec3d n, vb;
+        const Vec3d x = fem.x[size_t(i)] + dt * fem.v[size_t(i)];
+        if (b.surfaceAt(x, R, phi, n, vb) && phi < 0.0) mine.push_back(uint32_t(i));
+      }
+#pragma omp critical
+      inside.insert(inside.end(), mine.begin(), mine.end());
+    }
+    std::sort(inside.begin(), inside.end());
+    for (const uint32_t i : inside) {
       const Vec3d x = fem.x[i] + dt * fem.v[i];
       double phi;
       Vec3d n, vb;
-      if (!b.surfaceAt(x, R, phi, n, vb) || phi >= 0.0) continue;
+      b.surfaceAt(x, R, phi, n, vb);
       Vec3d dv = (-phi / dt) * n;
       const Vec3d u = fem.v[i] + dv - vb;
       const Vec3d ut = u - u.dot(n) * n;
@@ -842,14 +877,18 @@ void Solver::constrainElastic(ElasticSolid& e, size_t first, double dt) {
 
 void Solver::moveElastic(ElasticSolid& e, double dt) {
   FemBody& fem = e.fem;
-  for (size_t i = 0; i < fem.nodes(); ++i) {
-    fem.x[i] += dt * fem.v[i];
-    if (!std::isfinite(fem.x[i].sum() + fem.v[i].sum())) {
-      std::ostringstream msg;
-      msg << "step " << world_.steps + 1 << " at t = " << world_.time << " s: elastic object '"
-          << e.name << "' became non-finite at node " << i;
-      throw SimulationError(msg.str());
-    }
+  const int64_t nodes = int64_t(fem.nodes());
+  int64_t bad = nodes;  // the first node that became non-finite
+#pragma omp parallel for schedule(static) reduction(min : bad) if (nodes > 2048)
+  for (int64_t i = 0; i < nodes; ++i) {
+    fem.x[size_t(i)] += dt * fem.v[size_t(i)];
+    if (!std::isfinite(fem.x[size_t(i)].sum() + fem.v[size_t(i)].sum())) bad = std::min(bad, i);
+  }
+  if (bad < nodes) {
+    std::ostringstream msg;
+    msg << "step " << world_.steps + 1 << " at t = " << world_.time << " s: elastic object '"
+        << e.name << "' became non-finite at node " << bad;
+    throw SimulationError(msg.str());
   }
   // Implicit solids: what penetration the contact penalty left (a small
   // fraction) and what a moving body made after the solve is removed by

@@ -16,11 +16,40 @@
 
 namespace triad {
 
+// The solids phase by part, wall-clock seconds: what a scene with solids
+// spends where (they sum to PhaseTimes::solids).
+struct SolidsTimes {
+  double elastic_forces = 0;  // elastic solids' FEM forces or implicit solves
+  double poses = 0;           // collision particles placed, elastic node normals
+  double scatter = 0;         // solids' sums onto the solid grid (steps 1, 3, 4)
+  double gaps = 0;            // material's gaps to solids near them
+  double collide = 0;         // the shared nodes' collision (step 6)
+  double fronts = 0;          // particles' own fields (solver.front_fields)
+  double push_out = 0;        // particles found inside solids moved out
+  double gather = 0;          // collision particles read back (step 8)
+  double bodies = 0;          // rigid bodies' read-back, contacts and motion
+  double elastic = 0;         // elastic nodes' read-back, walls, contacts, motion
+  // (name, seconds) in the order of the step, for records.
+  std::vector<std::pair<const char*, double>> parts() const {
+    return {{"elastic_forces", elastic_forces},
+            {"poses", poses},
+            {"scatter", scatter},
+            {"gaps", gaps},
+            {"collide", collide},
+            {"fronts", fronts},
+            {"push_out", push_out},
+            {"gather", gather},
+            {"bodies", bodies},
+            {"elastic", elastic}};
+  }
+};
+
 // Wall-clock seconds spent in each phase of the step.
 struct PhaseTimes {
   double bin = 0, p2g = 0, grid = 0, g2p = 0;  // p2g includes the stress
   double solids = 0;  // coupling transfers, contacts and rigid integration
   double shot = 0;    // sources' emission and sinks' removal
+  SolidsTimes solid_parts;
   double total() const { return bin + p2g + grid + g2p + solids + shot; }
 };
 

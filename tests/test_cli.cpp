@@ -214,6 +214,49 @@ TEST(Cli, WritesCacheAndRunRecord) {
   EXPECT_EQ(rec["scene"]["name"], "mixed");
   EXPECT_LE(rec["dt"]["min"].get<double>(), rec["dt"]["max"].get<double>());
   EXPECT_GT(rec["wall_seconds"]["phases"]["p2g"].get<double>(), 0.0);
+  // No solids, no solids phase to take apart.
+  EXPECT_FALSE(rec["wall_seconds"].contains("solids_parts"));
+}
+
+// With solids, run.json takes the solids phase apart (what a user tuning a
+// shot with bodies looks at), the parts in the step's order and summing to
+// the phase; the summary prints them.
+TEST(Cli, RunRecordTakesTheSolidsPhaseApart) {
+  const fs::path dir = test::tempDir("cli_solids_parts");
+  json j = mixedScene();
+  j["frames"]["count"] = 2;
+  j["objects"].push_back({{"name", "cube"},
+                          {"kind", "elastic"},
+                          {"material", "jelly"},
+                          {"shape", test::box({0.22, 0.12, 0.22}, {0.32, 0.22, 0.32})},
+                          {"velocity", {0, -1, 0}}});
+  j["objects"].push_back(
+      {{"name", "ball"},
+       {"kind", "rigid"},
+       {"density", 500},
+       {"shape", json{{"sphere", {{"center", {0.1, 0.25, 0.3}}, {"radius", 0.04}}}}},
+       {"velocity", {0, -1, 0}}});
+  const std::string scene = test::writeScene(dir, j);
+  const Result r = triad(dir, "run " + scene + " --threads 2 --out " + (dir / "cache").string());
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("solids by part: elastic_forces"), std::string::npos) << r.out;
+  const auto rec = nlohmann::ordered_json::parse(slurp(dir / "cache/run.json"));
+  const auto& parts = rec["wall_seconds"]["solids_parts"];
+  std::vector<std::string> names;
+  double sum = 0.0;
+  for (const auto& [name, s] : parts.items()) {
+    names.push_back(name);
+    EXPECT_GE(s.get<double>(), 0.0) << name;
+    sum += s.get<double>();
+  }
+  EXPECT_EQ(names,
+            (std::vector<std::string>{"elastic_forces", "poses", "scatter", "gaps", "collide",
+                                      "fronts", "push_out", "gather", "bodies", "elastic"}));
+  for (const char* busy : {"elastic_forces", "scatter", "collide", "push_out", "gather"})
+    EXPECT_GT(parts[busy].get<double>(), 0.0) << busy;
+  EXPECT_EQ(parts["fronts"].get<double>(), 0.0);  // solver.front_fields is off
+  const double solids = rec["wall_seconds"]["phases"]["solids"].get<double>();
+  EXPECT_NEAR(sum, solids, 0.02 * solids + 1e-3);
 }
 
 // Without OMP_WAIT_POLICY the program runs with sleeping OpenMP threads

@@ -185,7 +185,7 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
   const size_t n = pts.size();
   point_key_.resize(n);
   if (point_key_.capacity() > 2 * n + 4096) point_key_.shrink_to_fit();  // fixed points gone
-#pragma omp parallel for schedule(static) if (n > 8192)
+#pragma omp parallel for schedule(static) if (n > 2048)
   for (int64_t q = 0; q < int64_t(n); ++q) {
     const Vec3i b = baseNode(pts.x[q], p.shifted_origin, p.inv_dx);
     point_key_[q] = packBlock(Vec3i(blockOf(b.x()), blockOf(b.y()), blockOf(b.z())));
@@ -209,8 +209,10 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
       runs.back().end = uint32_t(q + 1);
     }
   }
-  std::stable_sort(runs.begin(), runs.end(),
-                   [](const Run& a, const Run& b) { return a.key < b.key; });
+  // By key, runs of one key in point order (each run starts at its own point).
+  std::sort(runs.begin(), runs.end(), [](const Run& a, const Run& b) {
+    return a.key != b.key ? a.key < b.key : a.start < b.start;
+  });
 
   // Base blocks whose stencils reach the MPM grid; their neighbours' slots.
   layout_keys_ = &layout.grid_keys;

@@ -57,24 +57,52 @@ class TetBins {
     const size_t nvox = mesh.tets.size() / kTetsPerVoxel;
     boxes_.resize(nvox);
     std::vector<Eigen::Vector3i> vlo(nvox), vhi(nvox);
-    start_.assign(size_t(dims_.prod()) + 1, 0);
-    // A voxel's box: the corners of its Kuhn tetrahedra 0, 3 and 4 (axis
-    // orders xyz, yzx, zxy) are its eight corners.
-#pragma omp parallel for schedule(static) if (nvox > 1024)
-    for (int64_t v = 0; v < int64_t(nvox); ++v) {
-      Box b;
-      for (const size_t t : {0, 3, 4})
-        for (int k = 0; k < 4; ++k) b.add(y[size_t(mesh.tets[kTetsPerVoxel * size_t(v) + t][k])]);
-      boxes_[size_t(v)] = b;
-      vlo[size_t(v)] = cell(b.lo) - lo_;
-      vhi[size_t(v)] = cell(b.hi) - lo_;
+    const size_t cells = size_t(dims_.prod());
+    start_.assign(cells + 1, 0);
+    // A counting sort in one parallel region: each thread takes a run of
+    // voxels, counts their cells, then places its entries after those of
+    // the threads before it, so that a cell lists its voxels in index order
+    // on any number of threads. (Built serially it took half of the push-out
+    // on two threads, and the other thread fell asleep meanwhile.)
+    std::vector<uint32_t> counts;
+#pragma omp parallel if (nvox > 1024)
+    {
+      const int threads = omp_get_num_threads(), me = omp_get_thread_num();
+      const size_t v0 = nvox * size_t(me) / size_t(threads);
+      const size_t v1 = nvox * size_t(me + 1) / size_t(threads);
+#pragma omp single
+      counts.assign(cells * size_t(threads), 0);
+      uint32_t* mine = counts.data() + cells * size_t(me);
+      // A voxel's box: the corners of its Kuhn tetrahedra 0, 3 and 4 (axis
+      // orders xyz, yzx, zxy) are its eight corners.
+      for (size_t v = v0; v < v1; ++v) {
+        Box b;
+        for (const size_t t : {0, 3, 4})
+          for (int k = 0; k < 4; ++k) b.add(y[size_t(mesh.tets[kTetsPerVoxel * v + t][k])]);
+        boxes_[v] = b;
+        vlo[v] = cell(b.lo) - lo_;
+        vhi[v] = cell(b.hi) - lo_;
+        forCells(vlo[v], vhi[v], [&](size_t c) { ++mine[c]; });
+      }
+#pragma omp barrier
+#pragma omp single
+      {
+        // Each thread's first entry per cell, cell by cell, thread by thread.
+        uint32_t total = 0;
+        for (size_t c = 0; c < cells; ++c) {
+          start_[c] = total;
+          for (int t = 0; t < threads; ++t) {
+            const uint32_t k = counts[cells * size_t(t) + c];
+            counts[cells * size_t(t) + c] = total;
+            total += k;
+          }
+        }
+        start_[cells] = total;
+        voxels_.resize(total);
+      }
+      for (size_t v = v0; v < v1; ++v)
+        forCells(vlo[v], vhi[v], [&](size_t c) { voxels_[mine[c]++] = uint32_t(v); });
     }
-    for (size_t v = 0; v < nvox; ++v) forCells(vlo[v], vhi[v], [&](size_t c) { ++start_[c + 1]; });
-    for (size_t c = 1; c < start_.size(); ++c) start_[c] += start_[c - 1];
-    voxels_.resize(start_.back());
-    std::vector<uint32_t> next(start_.begin(), start_.end() - 1);
-    for (size_t v = 0; v < nvox; ++v)
-      forCells(vlo[v], vhi[v], [&](size_t c) { voxels_[next[c]++] = uint32_t(v); });
   }
   // Calls f(t) for the candidate tetrahedra of p in index order until f
   // returns true (none outside the box).
