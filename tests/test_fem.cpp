@@ -476,5 +476,52 @@ TEST(ElasticSolid, NodesCarryTheirDistanceAtRest) {
   EXPECT_EQ(under_a_face, 6 + 6 + 2);
 }
 
+// The node normals the poses read from the forces' kept F^-T are those
+// formed from the nodes (F^-T N, normalised), on a solid deformed by a
+// shear, a stretch and a rotation; the forces at other positions, or with
+// damping, keep none, and the normals are formed from the nodes then.
+TEST(ElasticSolid, NormalsFromTheForcesMatchThoseFromTheNodes) {
+  const double h = 0.01;
+  const Vec3d lo(0.1, 0.2, 0.3);
+  const Eigen::Vector3i n(5, 3, 4);  // 60 cells, 360 elements: many lane groups
+  const Vec3d hi = lo + h * n.cast<double>();
+  CollisionSamples samples;
+  samples.spacing = h;
+  for (const Vec3d& c : boxCells(lo, n, h)) {
+    samples.x.push_back(c.cast<float>());
+    samples.phi.push_back(-float(std::min((c - lo).minCoeff(), (hi - c).minCoeff())));
+    const Vec3d d = (c - 0.5 * (lo + hi)).normalized();
+    samples.normal.push_back(d.cast<float>());
+  }
+  ElasticSolid e =
+      makeElasticSolid(0, "box", samples, TriSurface{}, rubber(1e5, 0.3), 0.5, Vec3d::Zero());
+  Mat3d A;
+  A << 1.2, 0.3, 0.0, -0.1, 0.9, 0.2, 0.05, 0.0, 1.1;
+  const Mat3d R = Eigen::AngleAxisd(0.7, Vec3d(1, 2, 3).normalized()).toRotationMatrix();
+  for (size_t i = 0; i < e.fem.nodes(); ++i) {
+    const Vec3d p = e.fem.mesh.nodes[i];
+    // Plus a bend and a twist, so that every element's F differs (the six
+    // Kuhn tetrahedra of a cell see the cross terms differently).
+    const Vec3d q = (p - lo) / h;
+    e.fem.x[i] =
+        R * A * p + 1e-3 * Vec3d(q.y() * q.z(), q.x() * q.x() + q.x() * q.z(), q.x() * q.y());
+  }
+  std::vector<Vec3d> f;
+  e.fem.forces(f);
+  size_t kept = 0;
+  for (size_t i = 0; i < e.fem.nodes(); ++i) {
+    kept += e.fem.keptInverseTranspose(size_t(e.node_tet[i])) != nullptr;
+    EXPECT_LT((e.normalAfterForces(i) - e.normal(i)).norm(), 1e-12) << "node " << i;
+  }
+  EXPECT_EQ(kept, e.fem.nodes());
+  // Not at x: nothing kept for the poses.
+  std::vector<Vec3d> y = e.fem.x;
+  e.fem.forcesAt(y, f);
+  EXPECT_EQ(e.fem.keptInverseTranspose(size_t(e.node_tet[0])), nullptr);
+  e.fem.damping = 1.0;
+  e.fem.forces(f);
+  EXPECT_EQ(e.fem.keptInverseTranspose(size_t(e.node_tet[0])), nullptr);
+}
+
 }  // namespace
 }  // namespace triad
