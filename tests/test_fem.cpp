@@ -430,6 +430,22 @@ TEST(Fem, ImplicitVibrationRingsAndDecaysAsBackwardEuler) {
   EXPECT_NEAR(amp2 / amp1, expect_ratio, 0.04);
 }
 
+// A box of n cells of side h from lo as an elastic solid: each cell's
+// sample at its distance to the box's faces, its normal up or (`radial`)
+// away from the box's centre.
+ElasticSolid elasticBox(const Vec3d& lo, const Eigen::Vector3i& n, double h, bool radial) {
+  const Vec3d hi = lo + h * n.cast<double>();
+  CollisionSamples samples;
+  samples.spacing = h;
+  for (const Vec3d& c : boxCells(lo, n, h)) {
+    samples.x.push_back(c.cast<float>());
+    samples.phi.push_back(-float(std::min((c - lo).minCoeff(), (hi - c).minCoeff())));
+    const Vec3d up(0, 1, 0), out = (c - 0.5 * (lo + hi)).normalized();
+    samples.normal.push_back((radial ? out : up).cast<float>());
+  }
+  return makeElasticSolid(0, "box", samples, TriSurface{}, rubber(1e5, 0.3), 0.5, Vec3d::Zero());
+}
+
 // An elastic solid's nodes carry their distance to the mesh's boundary at
 // rest, as the coupling reads it: 0 on the boundary; -h one layer in under
 // a face (half its cells a half spacing deep, half one and a half); never
@@ -442,15 +458,7 @@ TEST(ElasticSolid, NodesCarryTheirDistanceAtRest) {
   const Vec3d lo(0.1, 0.2, 0.3);
   const Eigen::Vector3i n(4, 4, 6);
   const Vec3d hi = lo + h * n.cast<double>();
-  CollisionSamples samples;
-  samples.spacing = h;
-  for (const Vec3d& c : boxCells(lo, n, h)) {
-    samples.x.push_back(c.cast<float>());
-    samples.phi.push_back(-float(std::min((c - lo).minCoeff(), (hi - c).minCoeff())));
-    samples.normal.push_back(Vec3f(0, 1, 0));
-  }
-  const ElasticSolid e =
-      makeElasticSolid(0, "box", samples, TriSurface{}, rubber(1e5, 0.3), 0.5, Vec3d::Zero());
+  const ElasticSolid e = elasticBox(lo, n, h, false);
   ASSERT_EQ(e.phi0.size(), size_t(5 * 5 * 7));
   int boundary = 0, under_a_face = 0;
   for (size_t i = 0; i < e.phi0.size(); ++i) {
@@ -484,17 +492,7 @@ TEST(ElasticSolid, NormalsFromTheForcesMatchThoseFromTheNodes) {
   const double h = 0.01;
   const Vec3d lo(0.1, 0.2, 0.3);
   const Eigen::Vector3i n(5, 3, 4);  // 60 cells, 360 elements: many lane groups
-  const Vec3d hi = lo + h * n.cast<double>();
-  CollisionSamples samples;
-  samples.spacing = h;
-  for (const Vec3d& c : boxCells(lo, n, h)) {
-    samples.x.push_back(c.cast<float>());
-    samples.phi.push_back(-float(std::min((c - lo).minCoeff(), (hi - c).minCoeff())));
-    const Vec3d d = (c - 0.5 * (lo + hi)).normalized();
-    samples.normal.push_back(d.cast<float>());
-  }
-  ElasticSolid e =
-      makeElasticSolid(0, "box", samples, TriSurface{}, rubber(1e5, 0.3), 0.5, Vec3d::Zero());
+  ElasticSolid e = elasticBox(lo, n, h, true);
   Mat3d A;
   A << 1.2, 0.3, 0.0, -0.1, 0.9, 0.2, 0.05, 0.0, 1.1;
   const Mat3d R = Eigen::AngleAxisd(0.7, Vec3d(1, 2, 3).normalized()).toRotationMatrix();
