@@ -209,10 +209,33 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
       runs.back().end = uint32_t(q + 1);
     }
   }
-  // By key, runs of one key in point order (each run starts at its own point).
-  std::sort(runs.begin(), runs.end(), [](const Run& a, const Run& b) {
-    return a.key != b.key ? a.key < b.key : a.start < b.start;
-  });
+  // By key, runs of one key in point order. Keys order blocks by x, then
+  // y, then z, as an index into the box of blocks the runs span does: where
+  // that box is small, a counting sort over it (a comparison sort of a
+  // thousand runs took 70 us a step, its branches unpredictable).
+  Vec3i lo = Vec3i::Constant(std::numeric_limits<int>::max()), hi = -lo;
+  for (const Run& r : runs) {
+    const Vec3i b = unpackBlock(r.key);
+    lo = lo.cwiseMin(b);
+    hi = hi.cwiseMax(b);
+  }
+  const Vec3i ext = hi - lo + Vec3i::Ones();
+  if (!runs.empty() && ext.cast<double>().prod() <= 8.0 * double(runs.size()) + 4096.0) {
+    auto cell = [&](uint64_t key) {
+      const Vec3i b = unpackBlock(key) - lo;
+      return (size_t(b.x()) * size_t(ext.y()) + size_t(b.y())) * size_t(ext.z()) + size_t(b.z());
+    };
+    std::vector<uint32_t> start(size_t(ext.prod()) + 1, 0);
+    for (const Run& r : runs) ++start[cell(r.key) + 1];
+    for (size_t c = 1; c < start.size(); ++c) start[c] += start[c - 1];
+    std::vector<Run> sorted(runs.size());
+    for (const Run& r : runs) sorted[start[cell(r.key)]++] = r;
+    runs.swap(sorted);
+  } else {
+    std::sort(runs.begin(), runs.end(), [](const Run& a, const Run& b) {
+      return a.key != b.key ? a.key < b.key : a.start < b.start;
+    });
+  }
 
   // Base blocks whose stencils reach the MPM grid; their neighbours' slots.
   layout_keys_ = &layout.grid_keys;
