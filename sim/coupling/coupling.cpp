@@ -213,16 +213,17 @@ void GridCoupling::scatter(const SolidPoints& pts, const GridLayout& layout,
   // y, then z, as an index into the box of blocks the runs span does: where
   // that box is small, a counting sort over it (a comparison sort of a
   // thousand runs took 70 us a step, its branches unpredictable).
-  Vec3i lo = Vec3i::Constant(std::numeric_limits<int>::max()), hi = -lo;
+  Vec3i box_lo = Vec3i::Constant(std::numeric_limits<int>::max()), box_hi = -box_lo;
   for (const Run& r : runs) {
     const Vec3i b = unpackBlock(r.key);
-    lo = lo.cwiseMin(b);
-    hi = hi.cwiseMax(b);
+    box_lo = box_lo.cwiseMin(b);
+    box_hi = box_hi.cwiseMax(b);
   }
-  const Vec3i ext = hi - lo + Vec3i::Ones();
+  // (No runs, no box: its extent would overflow.)
+  const Vec3i ext = runs.empty() ? Vec3i::Zero() : Vec3i(box_hi - box_lo + Vec3i::Ones());
   if (!runs.empty() && ext.cast<double>().prod() <= 8.0 * double(runs.size()) + 4096.0) {
     auto cell = [&](uint64_t key) {
-      const Vec3i b = unpackBlock(key) - lo;
+      const Vec3i b = unpackBlock(key) - box_lo;
       return (size_t(b.x()) * size_t(ext.y()) + size_t(b.y())) * size_t(ext.z()) + size_t(b.z());
     };
     std::vector<uint32_t> start(size_t(ext.prod()) + 1, 0);
