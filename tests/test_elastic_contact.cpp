@@ -158,10 +158,11 @@ int deepPoints(const std::vector<Vec3d>& points, const FemBody& q) {
 // cube sinks to 0.047 m), and it keeps its shape. It does sink into the
 // sand, to 0.069 m; the explicit cube, at its own 6e-5 s steps, rests on
 // the surface at 0.100 m, and so does the implicit one with max_dt 6e-5
-// (0.078 m at 2e-4): the sinking grows with the coupled step, cause not
-// found (feeding the solid's translation back into the grid collision, as
-// for rigid bodies, did not change it). Asserted as measured so that a
-// change shows.
+// (0.078 m at 2e-4): the sinking grows with the coupled step. Its cause:
+// the points at the face read back only part of each shared node's change
+// (their stencils also cover the body's inside), so they keep approaching
+// by part of g dt every step (bench/RESULTS.md, "Why a stiff elastic solid
+// creeps into sand"). Asserted as measured so that a change shows.
 TEST(ImplicitContact, StiffCubeOnSandKeepsSandOut) {
   json j = test::baseScene("implicit_on_sand", {0.3, 0.4, 0.3}, 0.05);
   j["materials"]["sand"] = {{"model", "drucker_prager"}, {"density", 1600},
