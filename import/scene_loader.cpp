@@ -180,6 +180,8 @@ SolverDesc parseSolver(const ParamDict& root) {
     out.contact_gap = s->getBool("contact_gap", out.contact_gap);
     out.contact_gap_fixed = s->getBool("contact_gap_fixed", out.contact_gap_fixed);
     out.front_fields = s->getBool("front_fields", out.front_fields);
+    out.elastic_contact_passes =
+        s->getInt("elastic_contact_passes", out.elastic_contact_passes, Range::closed(0, 100));
     // Each particle gathers its own field's velocity and affine part: APIC's.
     if (out.front_fields && out.transfer != TransferScheme::Apic)
       s->fail("front_fields", "applies only with transfer \"apic\", and transfer is " +
@@ -211,7 +213,7 @@ SolverDesc parseSolver(const ParamDict& root) {
   s->checkUnknownKeys({}, [&](const std::string& key) -> std::string {
     if (key == "contact_reach" || key == "contact_normal" || key == "rigid_collision" ||
         key == "contact_gap" || key == "contact_gap_fixed" || key == "front_fields" ||
-        key == "front_angle_deg")
+        key == "elastic_contact_passes" || key == "front_angle_deg")
       return std::string("it applies only when coupling is \"three_grid\", and coupling is ") +
              inQuotes(nameOf(kCouplings, out.coupling));
     if (key != "flip_ratio") return {};
@@ -636,6 +638,7 @@ nlohmann::ordered_json solverSettings(const SolverDesc& s) {
     j["contact_gap"] = s.contact_gap;
     j["contact_gap_fixed"] = s.contact_gap_fixed;
     j["front_fields"] = s.front_fields;
+    j["elastic_contact_passes"] = s.elastic_contact_passes;
     j["front_angle_deg"] = s.front_angle_deg;
   }
   j["contact_velocity"] = nameOf(kContactVelocities, s.contact_velocity);

@@ -89,6 +89,9 @@ struct SolverDesc {
   // spacing off their faces, not up to a cell above them.
   bool contact_gap_fixed = true;
   int coupling_iterations = 30;  // most Jacobi passes of the grid collision with rigid bodies
+  // Three grids: passes that make the collision hold for what elastic
+  // solids' points read back (0: the contract's one pass).
+  int elastic_contact_passes = 8;
   int contact_iterations = 20;  // sequential-impulse passes for rigid contacts
   SleepDesc sleep;
 };

@@ -419,6 +419,8 @@ TEST_F(SceneLoaderTest, DefaultsAreTheDocumentedOnes) {
        [](const SceneDesc& s) { return json(s.solver.contact_gap_fixed); }},
       {"solver", "coupling_iterations", "/solver/coupling_iterations",
        [](const SceneDesc& s) { return json(s.solver.coupling_iterations); }},
+      {"solver", "elastic_contact_passes", "/solver/elastic_contact_passes",
+       [](const SceneDesc& s) { return json(s.solver.elastic_contact_passes); }},
       {"solver", "contact_iterations", "/solver/contact_iterations",
        [](const SceneDesc& s) { return json(s.solver.contact_iterations); }},
       {"materials", "critical_compression", "/materials/snow/critical_compression",
@@ -491,6 +493,7 @@ TEST_F(SceneLoaderTest, SolverSettingsParseBackToTheSameSettings) {
        {"contact_gap", false},
        {"contact_gap_fixed", false},
        {"front_fields", false},
+       {"elastic_contact_passes", 3},
        {"front_angle_deg", 30.0},
        {"contact_velocity", "before_update"},
        {"solid_readback", "combined"},
@@ -522,7 +525,9 @@ TEST_F(SceneLoaderTest, SolverSettingsParseBackToTheSameSettings) {
   const json single =
       solverSettings(load(with(minimalScene(), "/solver/coupling", "single_grid")).solver);
   EXPECT_FALSE(single.contains("contact_reach"));
-  EXPECT_EQ(defaults.size(), single.size() + 7);
+  EXPECT_FALSE(single.contains("elastic_contact_passes"));
+  EXPECT_EQ(defaults.at("elastic_contact_passes"), 8);
+  EXPECT_EQ(defaults.size(), single.size() + 8);
 }
 
 // Surface meshes are files named after materials: names that cannot name a
@@ -1025,6 +1030,9 @@ INSTANTIATE_TEST_SUITE_P(
         BadValue{"/solver/particles_per_cell", 65, {"solver.particles_per_cell", "got 65"}},
         BadValue{"/solver/particles_per_cell", 8.5, {"solver.particles_per_cell", "got 8.5"}},
         BadValue{"/solver/particles_per_cell", 1e12, {"particles_per_cell", "integer"}},
+        BadValue{"/solver/elastic_contact_passes",
+                 -1,
+                 {"solver.elastic_contact_passes", "[0, 100]", "got -1"}},
         BadValue{"/materials/sand/density", 0, {"materials.sand.density", "positive", "got 0"}},
         BadValue{
             "/materials/sand/youngs_modulus", -5, {"materials.sand.youngs_modulus", "positive"}},

@@ -546,9 +546,9 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
       // cell deep into sand (bench/RESULTS.md, "Elastic solids on sand").
       const bool elastic = sn.owner > 0 && pts.kind[size_t(sn.owner - 1)] == SolidKind::Moving &&
                            pts.body_mass[size_t(sn.owner - 1)] == 0.0;
-      c.close = gap_.size() == nodes_.size() && sn.phi > -1e29f && gap_[i] < 1e29f && !elastic
-                    ? gap_[i] / p.dt
-                    : 0.0f;
+      c.gap = gap_.size() == nodes_.size() && sn.phi > -1e29f ? gap_[i] : 1e30f;
+      c.close = c.gap < 1e29f && !elastic ? c.gap / p.dt : 0.0f;
+      c.elastic = elastic;
       c.i = uint32_t(i);
       c.g = uint32_t(gb * kBlockNodes + k);
       c.fixed = sn.fixed_m > 0.0f;  // any immovable solid: infinite mass
@@ -693,6 +693,7 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
   pass = relaxMoving(pts, share, pass, passes, dV, dW);
 
   stats_.passes = std::min(pass, passes);
+  if (!combined) settleElasticNodes(pts, p);
   size_t collisions = 0;
   for (size_t k = 0; k < shared_.size(); ++k) {
     const Shared& c = shared_[k];

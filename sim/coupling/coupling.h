@@ -170,6 +170,8 @@ class GridCoupling {
     Vec3f P = Vec3f::Zero(), T = Vec3f::Zero(), dP = Vec3f::Zero();
     float lambda = 0.0f;  // accumulated normal impulse
     float close = 0.0f;   // approach speed the gap allows: gap / dt
+    float gap = 1e30f;    // the material's clearance from the solid (m), where measured
+    bool elastic = false;  // a node of one elastic solid
   };
   // A base block of active points: its points and the slots of the eight
   // grid blocks its stencils reach (-1: not in the MPM grid).
@@ -214,6 +216,9 @@ class GridCoupling {
   void scanNearSolids(const std::vector<ParticleSet>& sets, const GridLayout& layout,
                       const TransferParams& p, bool gaps, bool fronts);
   void addNodeLoad(int32_t solid, const Shared& c, const Vec3f& impulse);
+  // Passes over elastic solids' nodes until the collision holds for what
+  // their points read back (elastic_response.cpp).
+  void settleElasticNodes(const SolidPoints& points, const TransferParams& p);
   // The velocity change shared_[k] gives the solid points that gather it;
   // called in shared_'s order.
   void setChange(size_t k, const Vec3f& dv);

@@ -1,0 +1,219 @@
+// The collision of MPM material with elastic solids, made to hold for what
+// the solids' points read back. The contract's step 6 gives a shared node
+// the common velocity of its material and of the solid mass there, m_i =
+// sum_q w_iq m_q; the points then read the change as sum_i w_iq delta_i,
+// delta_i = -P_i / m_i. That keeps momentum, but the node's solid velocity,
+// scattered again from its points, changes by sum_j A_ij P_j only, with
+//   A_ij = sum_q w_iq w_jq m_q / (m_i m_j),
+// since a point at the face also reaches nodes inside the body that took no
+// impulse. So after every collision the face still approaches the material
+// by part of the g dt it gained, and a stiff solid creeps into sand at a
+// speed that grows with the step (bench/RESULTS.md, "Why a stiff elastic
+// solid creeps into sand"). A rigid body has no such shortfall: its Newton
+// solve moves the whole body.
+//
+// Here, after the contract's pass, Jacobi passes relax each elastic node
+// against its solid velocity plus the change its points really make, each
+// node's step taking the row sum of A (and the material's own mass) as its
+// inverse mass. A has non-negative entries and is positive semi-definite,
+// so with D its row sums D^-1 A has its eigenvalues in [0, 1]: the passes
+// cannot overshoot, and an approach that is the same over a flat face goes
+// in one pass. Only nodes whose material is within a quarter cell of the
+// solid (the contact gap's clearance) take part: a node a cell or more from
+// the surface holds a sliver of the solid, and stopping the solid there in
+// full would hold it that far above the material. Sums run in a fixed
+// order over lists built from the points, so that results do not depend on
+// the thread count, and every process, holding every solid's points and
+// every shared node, solves alike.
+#include <algorithm>
+#include <cmath>
+
+#include "sim/coupling/coupling.h"
+
+namespace triad {
+
+namespace {
+
+// How close the material must be for a node to take part, in cells.
+constexpr float kElasticReach = 0.25f;
+
+// Node coordinates to the index of a selected node: a dense table over the
+// box of the nodes' 4^3 blocks, each present block holding 64 indices.
+class NodeTable {
+ public:
+  explicit NodeTable(const std::vector<Vec3i>& nodes) {
+    lo_ = hi_ = blockOf3(nodes[0]);
+    for (const Vec3i& n : nodes) {
+      lo_ = lo_.cwiseMin(blockOf3(n));
+      hi_ = hi_.cwiseMax(blockOf3(n));
+    }
+    ext_ = hi_ - lo_ + Vec3i::Ones();
+    block_.assign(size_t(ext_.x()) * size_t(ext_.y()) * size_t(ext_.z()), -1);
+    for (size_t k = 0; k < nodes.size(); ++k) {
+      int32_t& b = block_[blockIndex(blockOf3(nodes[k]))];
+      if (b < 0) {
+        b = int32_t(index_.size() / kBlockNodes);
+        index_.resize(index_.size() + kBlockNodes, -1);
+      }
+      index_[size_t(b) * kBlockNodes + local(nodes[k])] = int32_t(k);
+    }
+  }
+  // The selected node at n, or -1.
+  int32_t find(const Vec3i& n) const {
+    const Vec3i b = blockOf3(n);
+    if ((b.array() < lo_.array()).any() || (b.array() > hi_.array()).any()) return -1;
+    const int32_t s = block_[blockIndex(b)];
+    return s < 0 ? -1 : index_[size_t(s) * kBlockNodes + local(n)];
+  }
+  // Whether a stencil from base node `base` may reach a selected node.
+  bool mayReach(const Vec3i& base) const {
+    const Vec3i b0 = blockOf3(base), b1 = blockOf3(base + Vec3i::Constant(2));
+    return !((b1.array() < lo_.array()).any() || (b0.array() > hi_.array()).any());
+  }
+
+ private:
+  static Vec3i blockOf3(const Vec3i& n) {
+    return Vec3i(n.x() >> kBlockBits, n.y() >> kBlockBits, n.z() >> kBlockBits);
+  }
+  static int local(const Vec3i& n) {
+    const int m = kBlockSize - 1;
+    return ((n.x() & m) * kBlockSize + (n.y() & m)) * kBlockSize + (n.z() & m);
+  }
+  size_t blockIndex(const Vec3i& b) const {
+    const Vec3i r = b - lo_;
+    return (size_t(r.x()) * size_t(ext_.y()) + size_t(r.y())) * size_t(ext_.z()) + size_t(r.z());
+  }
+  Vec3i lo_, hi_, ext_;
+  std::vector<int32_t> block_, index_;
+};
+
+}  // namespace
+
+void GridCoupling::settleElasticNodes(const SolidPoints& pts, const TransferParams& p) {
+  const int passes = solver_.elastic_contact_passes;
+  if (passes <= 0) return;
+  // The nodes that take part, and where they lie.
+  const float reach = kElasticReach * p.dx;
+  const Vec3f node0 = p.shifted_origin - Vec3f::Constant(0.5f * p.dx);
+  std::vector<uint32_t> sel;
+  std::vector<Vec3i> at;
+  for (size_t k = 0; k < shared_.size(); ++k) {
+    const Shared& c = shared_[k];
+    if (!c.elastic || c.fixed || c.m_mpm <= 0.0f || c.n.isZero() || !(c.gap <= reach)) continue;
+    sel.push_back(uint32_t(k));
+    at.push_back(((c.x - node0) * p.inv_dx).array().round().cast<int>().matrix());
+  }
+  if (sel.empty()) return;
+  const NodeTable table(at);
+  const size_t nodes = sel.size();
+
+  // Each elastic point's stencil entries on the selected nodes, point by
+  // point (counted, then filled, in parallel).
+  std::vector<uint32_t> cand;
+  for (size_t s = 0; s < pts.solids(); ++s) {
+    if (pts.kind[s] != SolidKind::Moving || pts.body_mass[s] != 0.0) continue;
+    const size_t e = s + 1 < pts.begin.size() ? pts.begin[s + 1] : pts.size();
+    for (size_t q = pts.begin[s]; q < e; ++q)
+      if (table.mayReach(stencilAt(pts.x[q], p.shifted_origin, p.inv_dx).base))
+        cand.push_back(uint32_t(q));
+  }
+  struct Entry {
+    uint32_t node;
+    float w;
+  };
+  const int64_t npts = int64_t(cand.size());
+  // Each point's entries into 27 slots of its own, then packed.
+  std::vector<Entry> slots(cand.size() * 27);
+  std::vector<uint32_t> first(cand.size() + 1, 0);
+#pragma omp parallel for schedule(static) if (npts > 2048)
+  for (int64_t j = 0; j < npts; ++j) {
+    const Stencil st = stencilAt(pts.x[cand[size_t(j)]], p.shifted_origin, p.inv_dx);
+    Entry* out = &slots[size_t(j) * 27];
+    uint32_t n = 0;
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b)
+        for (int c = 0; c < 3; ++c) {
+          const int32_t k = table.find(st.base + Vec3i(a, b, c));
+          if (k >= 0) out[n++] = {uint32_t(k), st.w[0][a] * st.w[1][b] * st.w[2][c]};
+        }
+    first[size_t(j) + 1] = n;
+  }
+  for (size_t j = 0; j < cand.size(); ++j) first[j + 1] += first[j];
+  std::vector<Entry> entries(first.back());
+  for (size_t j = 0; j < cand.size(); ++j)
+    std::copy_n(&slots[j * 27], first[j + 1] - first[j], &entries[first[j]]);
+  // The same entries node by node, in point order within each node.
+  struct Back {
+    uint32_t point;
+    float w;
+  };
+  std::vector<uint32_t> node_first(nodes + 1, 0);
+  std::vector<Back> back(entries.size());
+  for (const Entry& en : entries) ++node_first[en.node + 1];
+  for (size_t k = 0; k < nodes; ++k) node_first[k + 1] += node_first[k];
+  {
+    std::vector<uint32_t> next(node_first.begin(), node_first.end() - 1);
+    for (size_t j = 0; j < cand.size(); ++j)
+      for (uint32_t e = first[j]; e < first[j + 1]; ++e)
+        back[next[entries[e].node]++] = {uint32_t(j), entries[e].w};
+  }
+  const int64_t nn = int64_t(nodes);
+
+  // Row sums of A: sum_j A_kj = sum_q w_kq m_q (sum_j w_jq / m_j) / m_k.
+  std::vector<float> s_q(cand.size(), 0.0f), row(nodes, 0.0f);
+#pragma omp parallel for schedule(static) if (npts > 2048)
+  for (int64_t j = 0; j < npts; ++j) {
+    float s = 0.0f;
+    for (uint32_t e = first[size_t(j)]; e < first[size_t(j) + 1]; ++e)
+      s += entries[e].w / shared_[sel[entries[e].node]].m_vol;
+    s_q[size_t(j)] = s * pts.point_mass[cand[size_t(j)]];
+  }
+#pragma omp parallel for schedule(static) if (nn > 1024)
+  for (int64_t k = 0; k < nn; ++k) {
+    float sum = 0.0f;
+    for (uint32_t e = node_first[size_t(k)]; e < node_first[size_t(k) + 1]; ++e)
+      sum += back[e].w * s_q[back[e].point];
+    row[size_t(k)] = sum / shared_[sel[size_t(k)]].m_vol;
+  }
+
+  // The passes: each point's change from the nodes' impulses, each node's
+  // solid velocity change from its points', and each node relaxed again.
+  std::vector<Vec3f> dv(cand.size()), change(nodes);
+  for (int pass = 0; pass < passes; ++pass) {
+#pragma omp parallel for schedule(static) if (npts > 2048)
+    for (int64_t j = 0; j < npts; ++j) {
+      Vec3f d = Vec3f::Zero();
+      for (uint32_t e = first[size_t(j)]; e < first[size_t(j) + 1]; ++e) {
+        const Shared& c = shared_[sel[entries[e].node]];
+        d -= (entries[e].w / c.m_vol) * c.P;
+      }
+      dv[size_t(j)] = pts.point_mass[cand[size_t(j)]] * d;  // momentum
+    }
+#pragma omp parallel for schedule(static) if (nn > 1024)
+    for (int64_t k = 0; k < nn; ++k) {
+      Vec3f sum = Vec3f::Zero();
+      for (uint32_t e = node_first[size_t(k)]; e < node_first[size_t(k) + 1]; ++e)
+        sum += back[e].w * dv[back[e].point];
+      change[size_t(k)] = sum / shared_[sel[size_t(k)]].m_vol;
+    }
+#pragma omp parallel for schedule(static) if (nn > 1024)
+    for (int64_t k = 0; k < nn; ++k) {
+      Shared& c = shared_[sel[size_t(k)]];
+      const Vec3f u = c.v_cmp + c.P / c.m_mpm - (c.v_vol + change[size_t(k)]);
+      const float un = u.dot(c.n);
+      if (un >= 0.0f && c.lambda <= 0.0f) continue;  // separating: material leaves freely
+      const float reduced = 1.0f / (1.0f / c.m_mpm + row[size_t(k)]);
+      const float lambda = std::max(0.0f, c.lambda - reduced * un);
+      // Coulomb friction on the same response: can stop sliding, never reverse it.
+      const Vec3f ut = u - un * c.n;
+      Vec3f T = c.T - reduced * ut;
+      const float limit = c.mu * lambda, len = T.norm();
+      if (len > limit) T *= limit / len;
+      c.P += (lambda - c.lambda) * c.n + (T - c.T);
+      c.lambda = lambda;
+      c.T = T;
+    }
+  }
+}
+
+}  // namespace triad
