@@ -806,6 +806,58 @@ TEST_F(Mpi, ElasticSolidAgreesWithOneProcess) {
   }
 }
 
+// A stiff implicit cube placed on sand across the cut, where the elastic
+// contact passes act: every process holds the cube's points and every
+// shared node, and solves the passes alike. Its mesh and the sand are the
+// single process's bytes at every frame, and it rests on the surface.
+// Measured: its bottom at 0.1017 m from frame 4 on; with no passes it
+// creeps 0.5 mm a frame (0.1010 m at frame 5, 0.0984 at frame 10).
+TEST_F(Mpi, ElasticContactPassesAgreeWithOneProcess) {
+  const fs::path dir = test::tempDir("elastic_passes");
+  json j = test::baseScene("mpi_elastic_passes", {0.4, 0.3, 0.2}, 0.05);
+  j["frames"]["count"] = 10;
+  j["materials"] = {{"sand", sandMaterial()},
+                    {"stiff",
+                     {{"model", "fixed_corotated"},
+                      {"density", 1000},
+                      {"youngs_modulus", 1e7},
+                      {"poisson_ratio", 0.3}}}};
+  j["objects"] = {{{"name", "bed"},
+                   {"kind", "mpm"},
+                   {"material", "sand"},
+                   {"shape", test::box({0, 0, 0}, {0.4, 0.1, 0.2})}},
+                  {{"name", "cube"},
+                   {"kind", "elastic"},
+                   {"material", "stiff"},
+                   {"integrator", "implicit"},
+                   {"friction", 0.5},
+                   {"shape", test::box({0.15, 0.105, 0.05}, {0.25, 0.205, 0.15})}}};
+  j["output"] = {{"vdb", false}, {"png", false}};
+  const std::string scene = test::writeScene(dir, j);
+  const test::CliResult one = run(dir, scene, dir / "one", "OMP_NUM_THREADS=1");
+  ASSERT_EQ(one.status, 0) << one.err;
+  auto bottom = [&](const char* mesh) {
+    const std::vector<float> v = meshVertices(dir / "one" / "bodies" / mesh);
+    float lo = 1e9f;
+    for (size_t k = 1; k < v.size(); k += 3) lo = std::min(lo, v[k]);
+    return lo;
+  };
+  // Resting on the surface, not creeping into it.
+  EXPECT_NEAR(bottom("cube.0010.ply"), bottom("cube.0005.ply"), 3e-4);
+  EXPECT_GT(bottom("cube.0010.ply"), 0.1f);
+  for (int n : {2, 3}) {
+    const fs::path out = dir / ("np" + std::to_string(n));
+    const test::CliResult r = run(dir, scene, out, mpirun(n));
+    ASSERT_EQ(r.status, 0) << r.err;
+    for (int f = 1; f <= 10; ++f) {
+      char mesh[32];
+      std::snprintf(mesh, sizeof(mesh), "bodies/cube.%04d.ply", f);
+      EXPECT_TRUE(sameFile(out / mesh, dir / "one" / mesh)) << n << " " << mesh;
+      EXPECT_TRUE(sameFile(framePly(out, f), framePly(dir / "one", f))) << n << " frame " << f;
+    }
+  }
+}
+
 // Water, snow and rubber thrown at an elastic block: about 1400 particles
 // are pushed out of it, all on one process, and every process applies
 // them all, in id order, to the block, whose state must agree bit for bit
