@@ -666,16 +666,7 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
     if (un >= 0.0f && c.lambda <= 0.0f) return;  // separating: material leaves freely
     const float m_solid = c.m_vol * (c.solid >= 0 ? share[c.solid] : 1.0f);
     const float reduced = c.fixed ? c.m_mpm : c.m_mpm * m_solid / (c.m_mpm + m_solid);
-    const float lambda = std::max(0.0f, c.lambda - reduced * un);
-    // Coulomb friction: can stop sliding, never reverse it.
-    const Vec3f ut = u - un * c.n;
-    Vec3f T = c.T - reduced * ut;
-    const float limit = c.mu * lambda, len = T.norm();
-    if (len > limit) T *= limit / len;
-    c.dP = (lambda - c.lambda) * c.n + (T - c.T);
-    c.lambda = lambda;
-    c.T = T;
-    c.P += c.dP;
+    c.relaxWith(u, un, reduced);
   };
   // First pass: every shared node. Nodes of fixed solids (or of several)
   // see a solid velocity that no pass changes: they are done after it.

@@ -5,6 +5,7 @@
 // solids reach: a node without MPM mass takes no part in any collision, so
 // the volumetric grid never needs nodes the MPM grid lacks. The combined
 // grid is never stored: each shared node forms it on the fly.
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <vector>
@@ -172,6 +173,22 @@ class GridCoupling {
     float close = 0.0f;   // approach speed the gap allows: gap / dt
     float gap = 1e30f;    // the material's clearance from the solid (m), where measured
     bool elastic = false;  // a node of one elastic solid
+    // One relaxation: the material's velocity relative to the solid u (un
+    // its normal part, less what the gap allows) is stopped through the
+    // reduced mass, the normal impulse never pulling and the tangential one
+    // within Coulomb's cone (it can stop sliding, never reverse it); dP is
+    // the change.
+    void relaxWith(const Vec3f& u, float un, float reduced) {
+      const float next = std::max(0.0f, lambda - reduced * un);
+      const Vec3f ut = u - un * n;
+      Vec3f t = T - reduced * ut;
+      const float limit = mu * next, len = t.norm();
+      if (len > limit) t *= limit / len;
+      dP = (next - lambda) * n + (t - T);
+      lambda = next;
+      T = t;
+      P += dP;
+    }
   };
   // A base block of active points: its points and the slots of the eight
   // grid blocks its stencils reach (-1: not in the MPM grid).

@@ -202,16 +202,7 @@ void GridCoupling::settleElasticNodes(const SolidPoints& pts, const TransferPara
       const Vec3f u = c.v_cmp + c.P / c.m_mpm - (c.v_vol + change[size_t(k)]);
       const float un = u.dot(c.n);
       if (un >= 0.0f && c.lambda <= 0.0f) continue;  // separating: material leaves freely
-      const float reduced = 1.0f / (1.0f / c.m_mpm + row[size_t(k)]);
-      const float lambda = std::max(0.0f, c.lambda - reduced * un);
-      // Coulomb friction on the same response: can stop sliding, never reverse it.
-      const Vec3f ut = u - un * c.n;
-      Vec3f T = c.T - reduced * ut;
-      const float limit = c.mu * lambda, len = T.norm();
-      if (len > limit) T *= limit / len;
-      c.P += (lambda - c.lambda) * c.n + (T - c.T);
-      c.lambda = lambda;
-      c.T = T;
+      c.relaxWith(u, un, 1.0f / (1.0f / c.m_mpm + row[size_t(k)]));
     }
   }
 }
