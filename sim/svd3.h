@@ -599,75 +599,103 @@ TRIAD_SVD3_INLINE double laneMax(const PackD& a) {
 }  // namespace svd3_detail
 
 #if defined(__GNUC__)
-// The polar rotation of up to eight double matrices already in vector
-// lanes, f (column-major, lanes from `count` on copies of a real one) into
-// r: polarRotationLanes' iteration, for callers that build F in the lanes.
-inline void polarRotationOfLanes(int count, const svd3_detail::PackD (&f)[9],
-                                 svd3_detail::PackD (&r)[9]) {
+// The polar rotation of N groups of up to eight double matrices already in
+// vector lanes, f[n] (column-major, lanes from count[n] on copies of a real
+// one) into r[n]. The groups' iterations run side by side: each step is a
+// chain of dependent operations (cofactors, a determinant, a division, the
+// next iterate), and one group alone left the vector units idle most of the
+// time; two groups together take about two thirds of the time per matrix,
+// four no less than two (bench/RESULTS.md). The groups step until all
+// their lanes have converged, so a lane may take a step more than it would
+// alone: R agrees to rounding, not bit for bit, with other groupings.
+template <int N>
+inline void polarRotationOfLaneGroups(const int (&count)[N], const svd3_detail::PackD (&f)[N][9],
+                                      svd3_detail::PackD (&r)[N][9]) {
   using svd3_detail::PackD;
   constexpr int L = 8;
-  // Lanes the iteration can take (det F > 1e-3 |F|^3); lanes past count
-  // iterate from the identity, as the fallback's do.
-  PackD c[9];
-  svd3_detail::cofactorLanes(f, c);
-  const PackD det = f[0] * c[0] + f[1] * c[1] + f[2] * c[2];
-  PackD norm2 = f[0] * f[0];
-  for (int e = 1; e < 9; ++e) norm2 += f[e] * f[e];
-  alignas(64) double det_l[L], norm2_l[L], start[9][L];
-  std::memcpy(det_l, &det, sizeof(det_l));
-  std::memcpy(norm2_l, &norm2, sizeof(norm2_l));
-  std::memcpy(start, f, sizeof(start));
-  bool direct[L], all_direct = true;
-  for (int l = 0; l < L; ++l) {
-    const double scale = std::sqrt(norm2_l[l]);
-    const bool pad = l >= count;
-    direct[l] = pad || det_l[l] > 1e-3 * scale * scale * scale;
-    all_direct &= direct[l];
-    if (!direct[l] || pad)
-      for (int e = 0; e < 9; ++e) start[e][l] = e % 4 == 0 ? 1.0 : 0.0;
+  PackD x[N][9];
+  bool all_direct = true;
+  bool direct[N][L];
+  for (int n = 0; n < N; ++n) {
+    // Lanes the iteration can take (det F > 1e-3 |F|^3); lanes past count
+    // iterate from the identity, as the fallback's do.
+    PackD c[9];
+    svd3_detail::cofactorLanes(f[n], c);
+    const PackD det = f[n][0] * c[0] + f[n][1] * c[1] + f[n][2] * c[2];
+    PackD norm2 = f[n][0] * f[n][0];
+    for (int e = 1; e < 9; ++e) norm2 += f[n][e] * f[n][e];
+    alignas(64) double det_l[L], norm2_l[L], start[9][L];
+    std::memcpy(det_l, &det, sizeof(det_l));
+    std::memcpy(norm2_l, &norm2, sizeof(norm2_l));
+    std::memcpy(start, f[n], sizeof(start));
+    for (int l = 0; l < L; ++l) {
+      const double scale = std::sqrt(norm2_l[l]);
+      const bool pad = l >= count[n];
+      direct[n][l] = pad || det_l[l] > 1e-3 * scale * scale * scale;
+      all_direct &= direct[n][l];
+      if (!direct[n][l] || pad)
+        for (int e = 0; e < 9; ++e) start[e][l] = e % 4 == 0 ? 1.0 : 0.0;
+    }
+    std::memcpy(x[n], start, sizeof(x[n]));
   }
-  PackD x[9];
-  std::memcpy(x, start, sizeof(x));
   bool scaled = true;
   for (int it = 0; it < 20; ++it) {
-    svd3_detail::cofactorLanes(x, c);
-    const PackD inv_det = 1.0 / (x[0] * c[0] + x[1] * c[1] + x[2] * c[2]);
-    for (int e = 0; e < 9; ++e) c[e] *= inv_det;
-    PackD half_g = PackD{} + 0.5, half_inv_g = PackD{} + 0.5;
-    if (scaled) {
-      PackD xx = x[0] * x[0], cc = c[0] * c[0];
-      for (int e = 1; e < 9; ++e) xx += x[e] * x[e], cc += c[e] * c[e];
-      PackD g = cc / xx;
-      svd3_detail::sqrtInPlace(g);
-      svd3_detail::sqrtInPlace(g);
-      half_g = 0.5 * g;
-      half_inv_g = 0.5 / g;
+    PackD worst2 = PackD{};
+    for (int n = 0; n < N; ++n) {
+      PackD c[9];
+      svd3_detail::cofactorLanes(x[n], c);
+      const PackD inv_det = 1.0 / (x[n][0] * c[0] + x[n][1] * c[1] + x[n][2] * c[2]);
+      for (int e = 0; e < 9; ++e) c[e] *= inv_det;
+      PackD half_g = PackD{} + 0.5, half_inv_g = PackD{} + 0.5;
+      if (scaled) {
+        PackD xx = x[n][0] * x[n][0], cc = c[0] * c[0];
+        for (int e = 1; e < 9; ++e) xx += x[n][e] * x[n][e], cc += c[e] * c[e];
+        PackD g = cc / xx;
+        svd3_detail::sqrtInPlace(g);
+        svd3_detail::sqrtInPlace(g);
+        half_g = 0.5 * g;
+        half_inv_g = 0.5 / g;
+      }
+      PackD d2 = PackD{};
+      for (int e = 0; e < 9; ++e) {
+        const PackD next = half_g * x[n][e] + half_inv_g * c[e];
+        d2 += (next - x[n][e]) * (next - x[n][e]);
+        x[n][e] = next;
+      }
+      worst2 = n == 0 ? d2 : (worst2 > d2 ? worst2 : d2);
     }
-    PackD d2 = PackD{};
-    for (int e = 0; e < 9; ++e) {
-      const PackD next = half_g * x[e] + half_inv_g * c[e];
-      d2 += (next - x[e]) * (next - x[e]);
-      x[e] = next;
-    }
-    const double worst = svd3_detail::laneMax(d2);
+    const double worst = svd3_detail::laneMax(worst2);
     if (worst < 1e-14) break;
     if (worst < 1e-4) scaled = false;
   }
-  if (!all_direct) {
-    // The lanes the iteration could not take: the SVD's rotation.
-    alignas(64) double in[9][L];
-    std::memcpy(in, f, sizeof(in));
-    std::memcpy(start, x, sizeof(x));
-    for (int l = 0; l < count; ++l) {
-      if (direct[l]) continue;
-      Mat3d A;
-      for (int e = 0; e < 9; ++e) A.data()[e] = in[e][l];
-      const Mat3d Rl = polarRotation(A);
-      for (int e = 0; e < 9; ++e) start[e][l] = Rl.data()[e];
+  for (int n = 0; n < N; ++n) {
+    if (!all_direct) {
+      // The lanes the iteration could not take: the SVD's rotation.
+      alignas(64) double in[9][L], out[9][L];
+      std::memcpy(in, f[n], sizeof(in));
+      std::memcpy(out, x[n], sizeof(out));
+      for (int l = 0; l < count[n]; ++l) {
+        if (direct[n][l]) continue;
+        Mat3d A;
+        for (int e = 0; e < 9; ++e) A.data()[e] = in[e][l];
+        const Mat3d Rl = polarRotation(A);
+        for (int e = 0; e < 9; ++e) out[e][l] = Rl.data()[e];
+      }
+      std::memcpy(x[n], out, sizeof(out));
     }
-    std::memcpy(x, start, sizeof(x));
+    std::memcpy(r[n], x[n], sizeof(x[n]));
   }
-  std::memcpy(r, x, sizeof(x));
+}
+
+// The polar rotation of up to eight double matrices already in vector
+// lanes, f (column-major, lanes from `count` on copies of a real one) into
+// r: one group of polarRotationOfLaneGroups.
+inline void polarRotationOfLanes(int count, const svd3_detail::PackD (&f)[9],
+                                 svd3_detail::PackD (&r)[9]) {
+  using svd3_detail::PackD;
+  const int counts[1] = {count};
+  polarRotationOfLaneGroups<1>(counts, reinterpret_cast<const PackD(&)[1][9]>(f),
+                               reinterpret_cast<PackD(&)[1][9]>(r));
 }
 
 // The polar rotation of double F[0..n), eight matrices at a time across
