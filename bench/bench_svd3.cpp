@@ -138,6 +138,39 @@ int main() {
                 t_snow_batch);
     std::printf("  DruckerPrager::projectAndKirchhoff    %6.1f ns, batch %6.1f ns\n", t_sand,
                 t_sand_batch);
+
+#if defined(__GNUC__)
+    // The FEM's double polar rotation in vector lanes: eight matrices a
+    // group, one group at a time or two side by side.
+    using triad::svd3_detail::PackD;
+    const int groups = n / 8;
+    std::vector<PackD> lanes(size_t(groups) * 9);
+    for (int g = 0; g < groups; ++g)
+      for (int l = 0; l < 8; ++l)
+        for (int e = 0; e < 9; ++e) lanes[size_t(g) * 9 + e][l] = in[size_t(g * 8 + l)].data()[e];
+    double sink = 0.0;
+    const double t_one = bestNs(n, 20, [&] {
+      for (int g = 0; g < groups; ++g) {
+        PackD f[9], r[9];
+        std::copy_n(&lanes[size_t(g) * 9], 9, f);
+        triad::polarRotationOfLanes(8, f, r);
+        sink += r[0][0];
+      }
+    });
+    const double t_two = bestNs(n, 20, [&] {
+      for (int g = 0; g + 1 < groups; g += 2) {
+        const int count[2] = {8, 8};
+        PackD f[2][9], r[2][9];
+        std::copy_n(&lanes[size_t(g) * 9], 18, &f[0][0]);
+        triad::polarRotationOfLaneGroups<2>(count, f, r);
+        sink += r[0][0][0] + r[1][0][0];
+      }
+    });
+    volatile double keep = sink;
+    (void)keep;
+    std::printf("  polar rotation, double lanes: one group %6.1f ns, two side by side %6.1f ns\n",
+                t_one, t_two);
+#endif
   }
   return 0;
 }
