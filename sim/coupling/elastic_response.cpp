@@ -26,9 +26,9 @@
 // the thread count, and every process, holding every solid's points and
 // every shared node, solves alike.
 #include <algorithm>
-#include <cmath>
 
 #include "sim/coupling/coupling.h"
+#include "sim/coupling/node_index.h"
 
 namespace triad {
 
@@ -55,7 +55,8 @@ class NodeTable {
         b = int32_t(index_.size() / kBlockNodes);
         index_.resize(index_.size() + kBlockNodes, -1);
       }
-      index_[size_t(b) * kBlockNodes + local(nodes[k])] = int32_t(k);
+      index_[size_t(b) * kBlockNodes + localNode(nodes[k].x(), nodes[k].y(), nodes[k].z())] =
+          int32_t(k);
     }
   }
   // The selected node at n, or -1.
@@ -63,7 +64,7 @@ class NodeTable {
     const Vec3i b = blockOf3(n);
     if ((b.array() < lo_.array()).any() || (b.array() > hi_.array()).any()) return -1;
     const int32_t s = block_[blockIndex(b)];
-    return s < 0 ? -1 : index_[size_t(s) * kBlockNodes + local(n)];
+    return s < 0 ? -1 : index_[size_t(s) * kBlockNodes + localNode(n.x(), n.y(), n.z())];
   }
   // Whether a stencil from base node `base` may reach a selected node.
   bool mayReach(const Vec3i& base) const {
@@ -72,13 +73,7 @@ class NodeTable {
   }
 
  private:
-  static Vec3i blockOf3(const Vec3i& n) {
-    return Vec3i(n.x() >> kBlockBits, n.y() >> kBlockBits, n.z() >> kBlockBits);
-  }
-  static int local(const Vec3i& n) {
-    const int m = kBlockSize - 1;
-    return ((n.x() & m) * kBlockSize + (n.y() & m)) * kBlockSize + (n.z() & m);
-  }
+  static Vec3i blockOf3(const Vec3i& n) { return Vec3i(blockOf(n.x()), blockOf(n.y()), blockOf(n.z())); }
   size_t blockIndex(const Vec3i& b) const {
     const Vec3i r = b - lo_;
     return (size_t(r.x()) * size_t(ext_.y()) + size_t(r.y())) * size_t(ext_.z()) + size_t(r.z());
@@ -114,7 +109,7 @@ void GridCoupling::settleElasticNodes(const SolidPoints& pts, const TransferPara
     if (pts.kind[s] != SolidKind::Moving || pts.body_mass[s] != 0.0) continue;
     const size_t e = s + 1 < pts.begin.size() ? pts.begin[s + 1] : pts.size();
     for (size_t q = pts.begin[s]; q < e; ++q)
-      if (table.mayReach(stencilAt(pts.x[q], p.shifted_origin, p.inv_dx).base))
+      if (table.mayReach(baseNode(pts.x[q], p.shifted_origin, p.inv_dx)))
         cand.push_back(uint32_t(q));
   }
   struct Entry {
