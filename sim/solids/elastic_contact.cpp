@@ -40,12 +40,11 @@ struct Box {
 // that holds the point.
 class TetBins {
  public:
-  // The voxels of the whole bounding box of y, per cell, in one array
+  // The voxels of the whole bounding box `all` of y, per cell, in one array
   // (counted, then filled: no allocation per bin; a cell lists its voxels
   // in index order).
-  TetBins(const std::vector<Vec3d>& y, const TetMesh& mesh) : h_(2.0 * mesh.spacing) {
-    Box all;
-    for (const Vec3d& p : y) all.add(p);
+  TetBins(const std::vector<Vec3d>& y, const Box& all, const TetMesh& mesh)
+      : h_(2.0 * mesh.spacing) {
     if (y.empty() || !all.lo.allFinite() || !all.hi.allFinite()) return;  // a blow-up: reported after
     // A solid stretched across a large domain: coarser cells, at most 2^24.
     for (;;) {
@@ -55,8 +54,7 @@ class TetBins {
       h_ *= 2.0;
     }
     const size_t nvox = mesh.tets.size() / kTetsPerVoxel;
-    boxes_.resize(nvox);
-    std::vector<Eigen::Vector3i> vlo(nvox), vhi(nvox);
+    boxes_.resize(nvox);  // (left unset: each thread sets its voxels')
     const size_t cells = size_t(dims_.prod());
     start_.assign(cells + 1, 0);
     // A counting sort in one parallel region: each thread takes a run of
@@ -79,10 +77,8 @@ class TetBins {
         Box b;
         for (const size_t t : {0, 3, 4})
           for (int k = 0; k < 4; ++k) b.add(y[size_t(mesh.tets[kTetsPerVoxel * v + t][k])]);
-        boxes_[v] = b;
-        vlo[v] = cell(b.lo) - lo_;
-        vhi[v] = cell(b.hi) - lo_;
-        forCells(vlo[v], vhi[v], [&](size_t c) { ++mine[c]; });
+        boxes_[v] = {b.lo, b.hi};
+        forCells(cell(b.lo) - lo_, cell(b.hi) - lo_, [&](size_t c) { ++mine[c]; });
       }
 #pragma omp barrier
 #pragma omp single
@@ -101,7 +97,8 @@ class TetBins {
         voxels_.resize(total);
       }
       for (size_t v = v0; v < v1; ++v)
-        forCells(vlo[v], vhi[v], [&](size_t c) { voxels_[mine[c]++] = uint32_t(v); });
+        forCells(cell(boxes_[v].lo) - lo_, cell(boxes_[v].hi) - lo_,
+                 [&](size_t c) { voxels_[mine[c]++] = uint32_t(v); });
     }
   }
   // Calls f(t) for the candidate tetrahedra of p in index order until f
@@ -138,7 +135,15 @@ class TetBins {
   Eigen::Vector3i lo_ = Eigen::Vector3i::Zero(), dims_ = Eigen::Vector3i::Zero();
   std::vector<uint32_t> start_;  // per cell: first entry; one more at the end
   std::vector<uint32_t> voxels_;
-  std::vector<Box> boxes_;       // per voxel: its deformed corners' box
+  // A voxel's box, without Box's initial bounds: a new vector of them is
+  // left unset rather than written twice.
+  struct Bounds {
+    Vec3d lo, hi;
+    bool contains(const Vec3d& p) const {
+      return (p.array() >= lo.array()).all() && (p.array() <= hi.array()).all();
+    }
+  };
+  std::vector<Bounds> boxes_;  // per voxel: its deformed corners' box
 };
 
 constexpr double kPushOut = 0.2;  // share of a penetration undone per step
@@ -253,16 +258,14 @@ struct EndOfStep {
   std::vector<Vec3d> y;
   Box box;
   std::optional<TetBins> bins;
-  EndOfStep(const FemBody& f, double dt) : body(f), y(endPositions(f, dt)) {
-    for (const Vec3d& p : y) box.add(p);
+  EndOfStep(const FemBody& f, double dt) : body(f), y(f.nodes()) {
+    for (size_t i = 0; i < f.nodes(); ++i) {
+      y[i] = f.x[i] + dt * f.v[i];
+      box.add(y[i]);
+    }
   }
   void bin() {
-    if (!bins) bins.emplace(y, body.mesh);
-  }
-  static std::vector<Vec3d> endPositions(const FemBody& f, double dt) {
-    std::vector<Vec3d> y(f.nodes());
-    for (size_t i = 0; i < f.nodes(); ++i) y[i] = f.x[i] + dt * f.v[i];
-    return y;
+    if (!bins) bins.emplace(y, box, body.mesh);
   }
 };
 
