@@ -77,7 +77,7 @@ class TetBins {
         Box b;
         for (const size_t t : {0, 3, 4})
           for (int k = 0; k < 4; ++k) b.add(y[size_t(mesh.tets[kTetsPerVoxel * v + t][k])]);
-        boxes_[v] = {b.lo, b.hi};
+        boxes_[v] = Bounds(b.lo, b.hi);
         forCells(cell(b.lo) - lo_, cell(b.hi) - lo_, [&](size_t c) { ++mine[c]; });
       }
 #pragma omp barrier
@@ -138,6 +138,8 @@ class TetBins {
   // A voxel's box, without Box's initial bounds: a new vector of them is
   // left unset rather than written twice.
   struct Bounds {
+    Bounds() {}  // user-provided: a resized vector is not zeroed either
+    Bounds(const Vec3d& l, const Vec3d& h) : lo(l), hi(h) {}
     Vec3d lo, hi;
     bool contains(const Vec3d& p) const {
       return (p.array() >= lo.array()).all() && (p.array() <= hi.array()).all();
