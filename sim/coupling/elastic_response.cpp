@@ -73,7 +73,9 @@ class NodeTable {
   }
 
  private:
-  static Vec3i blockOf3(const Vec3i& n) { return Vec3i(blockOf(n.x()), blockOf(n.y()), blockOf(n.z())); }
+  static Vec3i blockOf3(const Vec3i& n) {
+    return Vec3i(blockOf(n.x()), blockOf(n.y()), blockOf(n.z()));
+  }
   size_t blockIndex(const Vec3i& b) const {
     const Vec3i r = b - lo_;
     return (size_t(r.x()) * size_t(ext_.y()) + size_t(r.y())) * size_t(ext_.z()) + size_t(r.z());

@@ -18,15 +18,24 @@ namespace triad {
 
 namespace {
 
-struct Box {
-  Vec3d lo = Vec3d::Constant(1e300), hi = Vec3d::Constant(-1e300);
-  void add(const Vec3d& p) { lo = lo.cwiseMin(p), hi = hi.cwiseMax(p); }
+// Axis-aligned bounds. Default-constructed they are left unset, so that a
+// new vector of them is not written before it is filled.
+struct Bounds {
+  Bounds() {}  // user-provided: a resized vector is not zeroed either
+  Bounds(const Vec3d& l, const Vec3d& h) : lo(l), hi(h) {}
+  Vec3d lo, hi;
   bool contains(const Vec3d& p) const {
     return (p.array() >= lo.array()).all() && (p.array() <= hi.array()).all();
   }
-  bool overlaps(const Box& b) const {
+  bool overlaps(const Bounds& b) const {
     return (lo.array() <= b.hi.array()).all() && (b.lo.array() <= hi.array()).all();
   }
+};
+
+// Bounds that start empty and grow by the points added.
+struct Box : Bounds {
+  Box() : Bounds(Vec3d::Constant(1e300), Vec3d::Constant(-1e300)) {}
+  void add(const Vec3d& p) { lo = lo.cwiseMin(p), hi = hi.cwiseMax(p); }
 };
 
 // A solid's voxels binned by the bounding boxes of their deformed corners on
@@ -77,7 +86,7 @@ class TetBins {
         Box b;
         for (const size_t t : {0, 3, 4})
           for (int k = 0; k < 4; ++k) b.add(y[size_t(mesh.tets[kTetsPerVoxel * v + t][k])]);
-        boxes_[v] = Bounds(b.lo, b.hi);
+        boxes_[v] = b;
         forCells(cell(b.lo) - lo_, cell(b.hi) - lo_, [&](size_t c) { ++mine[c]; });
       }
 #pragma omp barrier
@@ -135,17 +144,7 @@ class TetBins {
   Eigen::Vector3i lo_ = Eigen::Vector3i::Zero(), dims_ = Eigen::Vector3i::Zero();
   std::vector<uint32_t> start_;  // per cell: first entry; one more at the end
   std::vector<uint32_t> voxels_;
-  // A voxel's box, without Box's initial bounds: a new vector of them is
-  // left unset rather than written twice.
-  struct Bounds {
-    Bounds() {}  // user-provided: a resized vector is not zeroed either
-    Bounds(const Vec3d& l, const Vec3d& h) : lo(l), hi(h) {}
-    Vec3d lo, hi;
-    bool contains(const Vec3d& p) const {
-      return (p.array() >= lo.array()).all() && (p.array() <= hi.array()).all();
-    }
-  };
-  std::vector<Bounds> boxes_;  // per voxel: its deformed corners' box
+  std::vector<Bounds> boxes_;  // per voxel: its deformed corners' box (unset until filled)
 };
 
 constexpr double kPushOut = 0.2;  // share of a penetration undone per step
