@@ -160,7 +160,7 @@ int main(int argc, char** argv) {
     }
     double lo = 1e9;
     for (const Vec3d& x : w.elastics[0].fem.x) lo = std::min(lo, x.y());
-    return lo + 0.25 * s.dx;
+    return lo;
   };
   auto level = [&]() {
     double v = 0;
@@ -347,5 +347,13 @@ int main(int argc, char** argv) {
       "%.4f, wall %.1f s\n",
       s.kind.c_str(), s.start.c_str(), s.thick, s.ratio, s.dx, mean_draft, draft,
       (mean_draft - draft) / s.dx, bottom(), omp_get_wtime() - wall0);
+  {
+    const triad::PhaseTimes& pt = solver.phaseTimes();
+    std::printf("steps %lld dt %.2e..%.2e; bin %.2f p2g %.2f grid %.2f g2p %.2f solids %.2f:",
+                (long long)solver.record().steps, solver.record().dt_min, solver.record().dt_max,
+                pt.bin, pt.p2g, pt.grid, pt.g2p, pt.solids);
+    for (const auto& [name, sec] : pt.solid_parts.parts()) std::printf(" %s %.2f", name, sec);
+    std::printf("\n");
+  }
   return 0;
 }

@@ -841,7 +841,8 @@ size_t GridCoupling::bytes() const {
          stencils_.capacity() * sizeof(Stencil) + halos_.capacity() * sizeof(SolidNode) +
          slot_fixed_.capacity() * 4 + block_points_.capacity() * 8 + halo_box_.capacity() * 6 +
          listBytes(gap_threads_) + moving_lanes_.capacity() * 4 + moving_start_.capacity() * 4 +
-         (front_layers_[0].capacity() + front_layers_[1].capacity()) * sizeof(GridNode);
+         (front_layers_[0].capacity() + front_layers_[1].capacity()) * sizeof(GridNode) +
+         elastic_scratch_.bytes();
 }
 
 }  // namespace triad

@@ -236,6 +236,23 @@ class GridCoupling {
   // Passes over elastic solids' nodes until the collision holds for what
   // their points read back (elastic_response.cpp).
   void settleElasticNodes(const SolidPoints& points, const TransferParams& p);
+  // settleElasticNodes' lists, kept from step to step: made afresh, its
+  // arrays of half a megabyte for a slab on water cost more in page faults
+  // than in use (most of the collision's time).
+  struct ElasticScratch {
+    struct Link {
+      uint32_t to;  // a point's entry: its node; a node's entry: its point
+      float w;
+    };
+    std::vector<uint32_t> sel, cand, first, node_first, next;
+    std::vector<Vec3i> at;
+    std::vector<Link> slots, entries, back;
+    std::vector<float> s_q, row, inv_m;
+    std::vector<Vec3f> dv, change, per_mass;
+    std::vector<int32_t> table_block, table_index;
+    size_t bytes() const;
+  };
+  ElasticScratch elastic_scratch_;
   // The velocity change shared_[k] gives the solid points that gather it;
   // called in shared_'s order.
   void setChange(size_t k, const Vec3f& dv);
