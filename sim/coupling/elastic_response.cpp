@@ -93,8 +93,8 @@ class NodeTable {
 
 size_t GridCoupling::ElasticScratch::bytes() const {
   return (sel.capacity() + cand.capacity() + first.capacity() + node_first.capacity() +
-          next.capacity() + s_q.capacity() + row.capacity() + inv_m.capacity() + table_block.capacity() +
-          table_index.capacity()) *
+          next.capacity() + s_q.capacity() + row.capacity() + inv_m.capacity() +
+          table_block.capacity() + table_index.capacity()) *
              4 +
          at.capacity() * sizeof(Vec3i) +
          (slots.capacity() + entries.capacity() + back.capacity()) * sizeof(Link) +
