@@ -1,13 +1,14 @@
 // Buoyancy of thin and submerged solids, measured against Archimedes:
 //   study_buoyancy [--start rest|submerged|dropped|film] [--thick CELLS]
 //                  [--ratio RHO/RHO_WATER] [--dx M] [--time S]
-//                  [--kind rigid|elastic] [--solver JSON] [--trace]
+//                  [--kind rigid|elastic] [--implicit] [--solver JSON] [--trace]
 // A slab 0.30 m long, CELLS * 0.02 m thick and 0.12 m deep in water 0.2 m
 // deep (bulk modulus 2e5 Pa), the setups. Prints the slab's bottom,
 // the water level (from the water's volume) and the draft against
 // Archimedes' over time, and a summary line.
 //   --wide        water 0.1 m wide all round the slab (default: 2 cells in z)
 //   --fixed       the slab is fixed: its force is the buoyancy
+//   --implicit    an elastic slab integrated by backward Euler
 //   --settle S    the slab is held in place for S seconds, then released
 //   --drive V     the slab is moved up at V m/s, gravity off (STUDY_GRAVITY=1: on)
 //   --start film  a block of water (STUDY_FILM_H m deep, default 0.04) on
@@ -48,7 +49,7 @@ struct Setup {
   std::string start = "rest", kind = "rigid";
   double thick = 3, ratio = 0.5, dx = 0.02, time = 2.0;
   json solver = json::object();
-  bool trace = false, fixed = false;
+  bool trace = false, fixed = false, implicit = false;
   double settle = 0;  // s the slab is held in place before it is released
   double drive = 0;   // m/s: the slab is moved up at this speed, gravity off
 };
@@ -72,6 +73,7 @@ int main(int argc, char** argv) {
     else if (a == "--solver") s.solver = json::parse(next());
     else if (a == "--trace") s.trace = true;
     else if (a == "--fixed") s.fixed = true;
+    else if (a == "--implicit") s.implicit = true;
     else if (a == "--settle") s.settle = std::stod(next());
     else if (a == "--drive") s.drive = std::stod(next());
     else if (a == "--wide") {  // gaps of 0.1 m all round
@@ -130,6 +132,7 @@ int main(int argc, char** argv) {
   if (s.kind == "rigid") slab["density"] = rho;
   else slab["material"] = "solid";
   if (s.fixed) slab["fixed"] = true;
+  if (s.implicit) slab["integrator"] = "implicit";
   if (getenv("STUDY_FRICTION")) slab["friction"] = std::stod(getenv("STUDY_FRICTION"));
   j["objects"].push_back(slab);
 
