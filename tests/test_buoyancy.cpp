@@ -68,9 +68,12 @@ World slabInWater(const std::string& name, double cells, double ratio, bool subm
   for (size_t k = 0; k < water.size(); ++k)
     j["objects"].push_back({{"name", "w" + std::to_string(k)}, {"kind", "mpm"},
                             {"material", "water"}, {"shape", water[k]}});
-  json slab = {{"name", "slab"}, {"kind", kind}, {"shape", box({kSx0, y0, sz0}, {kSx1, y0 + t, sz1})}};
-  if (kind == "rigid") slab["density"] = 1000 * ratio;
-  else slab["material"] = "solid";
+  json slab = {
+      {"name", "slab"}, {"kind", kind}, {"shape", box({kSx0, y0, sz0}, {kSx1, y0 + t, sz1})}};
+  if (kind == "rigid")
+    slab["density"] = 1000 * ratio;
+  else
+    slab["material"] = "solid";
   j["objects"].push_back(slab);
   return test::loadWorld(test::tempDir(name), j);
 }
