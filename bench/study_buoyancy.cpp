@@ -162,9 +162,12 @@ int main(int argc, char** argv) {
           }
       return sum / double(cnt) - 0.5 * t;
     }
-    double lo = 1e9;
-    for (const Vec3d& x : w.elastics[0].fem.x) lo = std::min(lo, x.y());
-    return lo;
+    // An elastic slab's centre of mass less half its thickness: it bends
+    // and tilts in moving water, where its lowest node is not its bottom.
+    const triad::FemBody& fem = w.elastics[0].fem;
+    double my = 0, m = 0;
+    for (size_t i = 0; i < fem.x.size(); ++i) my += fem.mass[i] * fem.x[i].y(), m += fem.mass[i];
+    return my / m - 0.5 * t;
   };
   auto level = [&]() {
     double v = 0;
@@ -358,6 +361,11 @@ int main(int argc, char** argv) {
                 pt.bin, pt.p2g, pt.grid, pt.g2p, pt.solids);
     for (const auto& [name, sec] : pt.solid_parts.parts()) std::printf(" %s %.2f", name, sec);
     std::printf("\n");
+    if (s.implicit && !w.elastics.empty()) {
+      const auto st = w.elastics[0].fem.lastSolve();
+      std::printf("last implicit solve: %d Newton iterations, %d CG iterations, %d direct\n",
+                  st.newton, st.cg_iterations, st.direct);
+    }
   }
   return 0;
 }

@@ -8,7 +8,6 @@
 // solver.front_fields, in a wider tank, it reaches the surface and floats.
 #include <gtest/gtest.h>
 
-#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <tuple>
@@ -78,14 +77,14 @@ World slabInWater(const std::string& name, double cells, double ratio, bool subm
   return test::loadWorld(test::tempDir(name), j);
 }
 
-// A rigid slab's bottom from its centre; an elastic one's is its lowest
-// mesh node (the mesh's faces are the box's, snapped to the samples'
-// lattice).
+// A slab's bottom from its centre of mass (an elastic slab's mesh has the
+// box's faces, snapped to the samples' lattice).
 double slabBottom(const World& w, double cells) {
   if (w.bodies.empty()) {
-    double lo = 1e9;
-    for (const Vec3d& x : w.elastics[0].fem.x) lo = std::min(lo, x.y());
-    return lo;
+    const FemBody& fem = w.elastics[0].fem;
+    double my = 0, m = 0;
+    for (size_t i = 0; i < fem.x.size(); ++i) my += fem.mass[i] * fem.x[i].y(), m += fem.mass[i];
+    return my / m - 0.5 * cells * kDx;
   }
   return w.bodies[0].state.x.y() - 0.5 * cells * kDx;
 }
