@@ -158,8 +158,10 @@ INSTANTIATE_TEST_SUITE_P(ThicknessAndRatio, FloatingSlab,
 // tolerances. study_buoyancy --kind elastic --start rest (1 s, mean over
 // the second half), draft error in cells, ratio 0.2 / 0.5 / 0.8: 2 cells
 // +0.15 / +0.09 / +0.11; 3 cells -0.08 / 0.00 / +0.19; 4 cells +0.15 /
-// 0.00 / +0.02; 6 cells +0.31 (a miss) / +0.04 / +0.04 (bench/RESULTS.md,
-// "Elastic slabs in water"). The two cases here are the
+// 0.00 / +0.02; 6 cells +0.31 (a miss) / +0.04 / +0.04 (the lowest node's
+// height; bench/RESULTS.md, "Elastic slabs in water"). Read from the
+// centre of mass as here, the two cases below give +0.14 and +0.16 dx over
+// 0.3-0.5 s. They are the
 // thinnest slab at the lightest ratio and the 3-cell slab nearest its
 // tolerance. The slab's explicit step (its elements' wave speed) is a
 // fifth of the water's: a second takes about 10,000 steps, so the test
@@ -173,8 +175,9 @@ TEST_P(FloatingElasticSlab, StaysAtArchimedesDraft) {
   World w = slabInWater(name, cells, ratio, false, kNarrow, json::object(), "elastic");
   ASSERT_EQ(w.elastics.size(), 1u);
   Solver solver(w);
-  // It settles within 0.3 s (3 cells, ratio 0.8: +0.14 dx at 0.05 s, +0.21
-  // at 0.3 s, +0.18-0.19 from 0.4 s to 1 s): the mean over 0.3-0.5 s.
+  // It settles within 0.3 s (3 cells, ratio 0.8, from its lowest node:
+  // +0.14 dx at 0.05 s, +0.21 at 0.3 s, +0.18-0.19 from 0.4 s to 1 s): the
+  // mean over 0.3-0.5 s.
   solver.advanceTo(0.3);
   double draft = 0;
   const int n = 4;
