@@ -14,6 +14,7 @@
 #include <map>
 
 #include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 
 #include "sim/solids/elastic_solid.h"
 #include "sim/solids/fem.h"
@@ -173,6 +174,50 @@ TEST(Fem, StiffnessIsTheDerivativeOfTheForces) {
     const double size = raw.vectorD().cwiseAbs().maxCoeff();
     EXPECT_LT(raw.vectorD().minCoeff(), -1e-6 * size);
     EXPECT_GT(psd.vectorD().minCoeff(), -1e-9 * size);
+  }
+}
+
+// dP/dF assembled in the singular values' frame is the model's own dP/dF,
+// and its projection is what a 9x9 eigendecomposition gives, for stretched,
+// squashed, sheared, nearly flat and inverted F, with two equal singular
+// values too (where the pairs' formulas would divide by their difference).
+TEST(Fem, SvdFrameDerivativeMatchesTheModelAndItsProjection) {
+  const std::vector<Mat3d> cases = [] {
+    std::vector<Mat3d> fs;
+    Mat3d F;
+    F << 1.1, 0.2, -0.1, 0.05, 0.9, 0.3, -0.2, 0.1, 1.05;
+    fs.push_back(F);                                       // general
+    fs.push_back(0.7 * Mat3d::Identity());                 // squashed, three equal
+    fs.push_back(Vec3d(1.3, 1.3, 0.6).asDiagonal());       // two equal
+    fs.push_back(Vec3d(1.0, 1.0, 0.02).asDiagonal());      // nearly flat
+    fs.push_back(Vec3d(0.9, 1.1, -0.4).asDiagonal() * F);  // inverted
+    F << 0.95, 0.6, 0, 0, 0.95, 0, 0, 0, 0.97;
+    fs.push_back(F);  // sheared, compressed
+    for (int k = 0; k < 20; ++k) {
+      Mat3d R;
+      for (int i = 0; i < 9; ++i) R(i) = std::sin(1.7 * k + 2.3 * i) * 0.45;
+      fs.push_back(Mat3d::Identity() + R);
+    }
+    return fs;
+  }();
+  for (MaterialModel m : {MaterialModel::FixedCorotated, MaterialModel::NeoHookean}) {
+    const ElasticModel model = makeElasticModel(rubber(1e5, 0.3, m));
+    for (size_t c = 0; c < cases.size(); ++c) {
+      const Mat3d& F = cases[c];
+      const Mat9<double> exact =
+          std::visit([&](const auto& mat) { return mat.firstPiolaDerivative(F); }, model);
+      const double scale = exact.cwiseAbs().maxCoeff();
+      const Mat9<double> raw = svdFrameDerivative(model, F, false);
+      EXPECT_LT((raw - exact).cwiseAbs().maxCoeff(), 1e-9 * scale)
+          << "model " << int(m) << ", case " << c;
+      const Eigen::SelfAdjointEigenSolver<Mat9<double>> eig(0.5 * (exact + exact.transpose()));
+      const Mat9<double> projected = eig.eigenvectors() *
+                                     eig.eigenvalues().cwiseMax(0.0).asDiagonal() *
+                                     eig.eigenvectors().transpose();
+      const Mat9<double> psd = svdFrameDerivative(model, F, true);
+      EXPECT_LT((psd - projected).cwiseAbs().maxCoeff(), 1e-8 * scale)
+          << "model " << int(m) << ", case " << c;
+    }
   }
 }
 

@@ -146,6 +146,26 @@ struct FixedCorotated {
     return T(2) * mu * (Mat9<T>::Identity() - dRdF) + lambda * vec(C) * vec(C).transpose() +
            lambda * (J - 1) * material_detail::cofactorDerivative(F);
   }
+
+  // dP/dF in the singular values' frame (Teran et al. 2005), for singular
+  // values s of the rotation-variant SVD: A = d2psi/ds2 acts on the
+  // diagonal of U^T dF V, and for the pair (i, j) opposite axis k two modes
+  // of its off-diagonal entries, (1, 1) with eigenvalue plus(k) = (psi_i -
+  // psi_j) / (s_i - s_j) and (1, -1) with minus(k) = (psi_i + psi_j) /
+  // (s_i + s_j); here both without a division by s_i - s_j.
+  void svdFrameHessian(const Vec3<T>& s, Mat3<T>& A, Vec3<T>& plus, Vec3<T>& minus) const {
+    static constexpr T kMinSingularSum = T(1e-6);
+    const T J = s.prod();
+    const Vec3<T> c(s(1) * s(2), s(0) * s(2), s(0) * s(1));  // J / s_i, the cofactor's
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        A(i, j) = lambda * c(i) * c(j) + (i == j ? T(2) * mu : lambda * (J - 1) * s(3 - i - j));
+    for (int k = 0; k < 3; ++k) {
+      const T sum = std::max(s((k + 1) % 3) + s((k + 2) % 3), kMinSingularSum);
+      plus(k) = T(2) * mu - lambda * (J - 1) * s(k);
+      minus(k) = T(2) * mu - T(4) * mu / sum + lambda * (J - 1) * s(k);
+    }
+  }
 };
 
 // Compressible neo-Hookean elasticity:
@@ -215,6 +235,19 @@ struct NeoHookean {
     const Mat3<T> C = material_detail::cofactor(F);
     return mu * Mat9<T>::Identity() + d2h * vec(C) * vec(C).transpose() +
            dh * material_detail::cofactorDerivative(F);
+  }
+
+  // dP/dF in the singular values' frame, as FixedCorotated's: psi_i = mu
+  // s_i + h'(J) J / s_i, so plus(k) = mu - h'(J) s_k and minus(k) = mu +
+  // h'(J) s_k.
+  void svdFrameHessian(const Vec3<T>& s, Mat3<T>& A, Vec3<T>& plus, Vec3<T>& minus) const {
+    T h, dh, d2h;
+    volumeTerms(s.prod(), h, dh, d2h);
+    const Vec3<T> c(s(1) * s(2), s(0) * s(2), s(0) * s(1));
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) A(i, j) = d2h * c(i) * c(j) + (i == j ? mu : dh * s(3 - i - j));
+    plus = (mu - dh * s.array()).matrix();
+    minus = (mu + dh * s.array()).matrix();
   }
 };
 

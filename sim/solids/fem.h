@@ -21,6 +21,13 @@ using ElasticModel = std::variant<FixedCorotated<double>, NeoHookean<double>>;
 // The elastic models FEM takes; throws InputError for the others.
 ElasticModel makeElasticModel(const MaterialDesc& desc);
 
+// dP/dF of the model at F assembled from its singular values' frame
+// (Teran et al. 2005: a 3x3 block and three pairs of modes with closed-form
+// eigenvalues); with `psd`, every negative eigenvalue set to zero, as the
+// implicit solve's Newton step needs, at a fraction of a 9x9
+// eigendecomposition's cost.
+Mat9<double> svdFrameDerivative(const ElasticModel& model, const Mat3d& F, bool psd);
+
 // Edge matrix [p1 - p0, p2 - p0, p3 - p0] of a tetrahedron.
 Mat3d edges(const std::vector<Vec3d>& p, const std::array<int, 4>& n);
 

@@ -99,19 +99,6 @@ Eigen::Matrix<double, 9, 12> deformationJacobian(const Mat3d& B) {
   return G;
 }
 
-// dP/dF made positive semi-definite, so that Newton's step descends. Most
-// elements already are (an LDL^T with non-negative pivots shows it, at a
-// fraction of an eigendecomposition's cost); the others lose their
-// negative eigenvalues.
-Mat9<double> projectPsd(const Mat9<double>& A) {
-  const Eigen::LDLT<Mat9<double>> ldlt(A);
-  const double scale = A.diagonal().cwiseAbs().maxCoeff();
-  if (ldlt.info() == Eigen::Success && ldlt.vectorD().minCoeff() >= -1e-12 * scale) return A;
-  const Eigen::SelfAdjointEigenSolver<Mat9<double>> eig(A);
-  return eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).asDiagonal() *
-         eig.eigenvectors().transpose();
-}
-
 // Penetration of node position y into the walls along each axis: positive
 // below lo (pushed up), negative above hi (pushed down), zero between.
 Vec3d wallPenetration(const FemContacts& c, const Vec3d& y) {
@@ -125,15 +112,66 @@ Vec3d wallPenetration(const FemContacts& c, const Vec3d& y) {
 
 }  // namespace
 
+Mat9<double> svdFrameDerivative(const ElasticModel& model, const Mat3d& F, bool psd) {
+  Mat3d U, V, A;
+  Vec3d s, plus, minus;
+  const double size = F.norm();
+  if (F.determinant() > 1e-3 * size * size * size) {
+    // Uninverted and well conditioned (nearly every element): F = R S, S
+    // symmetric positive definite, S = V diag(s) V^T by the closed-form 3x3
+    // eigensolver and U = R V; a third of a Jacobi SVD's cost in double.
+    const Mat3d R = polarRotation(F);
+    const Mat3d S = R.transpose() * F;
+    Eigen::SelfAdjointEigenSolver<Mat3d> eig;
+    eig.computeDirect(0.5 * (S + S.transpose()));
+    V = eig.eigenvectors();
+    if (V.determinant() < 0) V.col(0) = -V.col(0);
+    s = eig.eigenvalues();
+    U = R * V;
+  } else {
+    svd3(F, U, s, V);
+  }
+  std::visit([&](const auto& mat) { mat.svdFrameHessian(s, A, plus, minus); }, model);
+  if (psd) {
+    // The 3x3 block loses its negative eigenvalues (most blocks have none:
+    // a Cholesky factorisation shows it); each pair's two modes are
+    // eigenvectors already.
+    if (Eigen::LLT<Mat3d>(A).info() != Eigen::Success) {
+      Eigen::SelfAdjointEigenSolver<Mat3d> eig;
+      eig.computeDirect(A);
+      A = eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).asDiagonal() *
+          eig.eigenvectors().transpose();
+    }
+    plus = plus.cwiseMax(0.0);
+    minus = minus.cwiseMax(0.0);
+  }
+  // The frame's 9x9 matrix on vec(U^T dF V), column-major as vec().
+  Mat9<double> H = Mat9<double>::Zero();
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b) H(4 * a, 4 * b) = A(a, b);
+  for (int k = 0; k < 3; ++k) {
+    const int ij = (k + 1) % 3 + 3 * ((k + 2) % 3), ji = (k + 2) % 3 + 3 * ((k + 1) % 3);
+    H(ij, ij) = H(ji, ji) = 0.5 * (plus(k) + minus(k));
+    H(ij, ji) = H(ji, ij) = 0.5 * (plus(k) - minus(k));
+  }
+  // vec(U X V^T) = W vec(X), W = V (x) U, orthogonal: dP/dF = W H W^T.
+  Mat9<double> W;
+  for (int j = 0; j < 3; ++j)
+    for (int i = 0; i < 3; ++i)
+      for (int b = 0; b < 3; ++b)
+        for (int a = 0; a < 3; ++a) W(i + 3 * j, a + 3 * b) = U(i, a) * V(j, b);
+  return W * H * W.transpose();
+}
+
 Eigen::Matrix<double, 12, 12> FemBody::elementStiffness(const std::vector<Vec3d>& y, size_t t,
                                                         bool psd) const {
   return std::visit(
       [&](const auto& mat) {
         const Mat3d F = edges(y, mesh.tets[t]) * dm_inv[t];
         const Eigen::Matrix<double, 9, 12> G = deformationJacobian(dm_inv[t]);
-        const Mat9<double> dP = mat.firstPiolaDerivative(F);
-        return Eigen::Matrix<double, 12, 12>(volume[t] * G.transpose() *
-                                             (psd ? projectPsd(dP) : dP) * G);
+        const Mat9<double> dP =
+            psd ? svdFrameDerivative(model, F, true) : mat.firstPiolaDerivative(F);
+        return Eigen::Matrix<double, 12, 12>(volume[t] * G.transpose() * dP * G);
       },
       model);
 }
