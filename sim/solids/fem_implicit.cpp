@@ -1,5 +1,5 @@
-// GCC 12 warns of uninitialised AVX-512 lanes inside Eigen's 9x9 eigen
-// solver (a false positive reported in the intrinsics header, which the
+// GCC 12 warns of uninitialised AVX-512 lanes inside Eigen's small dense
+// solvers (a false positive reported in the intrinsics header, which the
 // first include pulls in: hence before it).
 #if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
