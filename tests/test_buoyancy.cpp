@@ -115,8 +115,8 @@ double meanDraftError(World& w, const char* what, double cells, double ratio, do
   }
   const double archimedes = ratio * cells * kDx;
   const double error = (draft - archimedes) / kDx;
-  std::printf("%s %.0f cells, ratio %.1f: draft %.4f m (Archimedes %.4f), %+.2f dx\n", what,
-              cells, ratio, draft, archimedes, error);
+  std::printf("%s %.0f cells, ratio %.1f: draft %.4f m (Archimedes %.4f), %+.2f dx\n", what, cells,
+              ratio, draft, archimedes, error);
   return error;
 }
 
