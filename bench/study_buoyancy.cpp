@@ -73,8 +73,7 @@ int main(int argc, char** argv) {
     else if (a == "--solver") s.solver = json::parse(next());
     else if (a == "--trace") s.trace = true;
     else if (a == "--fixed") s.fixed = true;
-    else if (a == "--implicit")
-      s.implicit = true;
+    else if (a == "--implicit") s.implicit = true;
     else if (a == "--settle") s.settle = std::stod(next());
     else if (a == "--drive") s.drive = std::stod(next());
     else if (a == "--wide") {  // gaps of 0.1 m all round
