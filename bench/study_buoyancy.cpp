@@ -163,10 +163,7 @@ int main(int argc, char** argv) {
     }
     // An elastic slab's centre of mass less half its thickness: it bends
     // and tilts in moving water, where its lowest node is not its bottom.
-    const triad::FemBody& fem = w.elastics[0].fem;
-    double my = 0, m = 0;
-    for (size_t i = 0; i < fem.x.size(); ++i) my += fem.mass[i] * fem.x[i].y(), m += fem.mass[i];
-    return my / m - 0.5 * t;
+    return w.elastics[0].fem.centreOfMass().y() - 0.5 * t;
   };
   auto level = [&]() {
     double v = 0;

@@ -67,6 +67,12 @@ double FemBody::totalMass() const {
   return m;
 }
 
+Vec3d FemBody::centreOfMass() const {
+  Vec3d mx = Vec3d::Zero();
+  for (size_t i = 0; i < x.size(); ++i) mx += mass[i] * x[i];
+  return mx / totalMass();
+}
+
 namespace {
 
 // Below this many elements their forces take less time (about 40 ns an

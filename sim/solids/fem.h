@@ -95,6 +95,7 @@ struct FemBody {
 
   size_t nodes() const { return x.size(); }
   double totalMass() const;
+  Vec3d centreOfMass() const;  // of the lumped node masses
   // Elastic forces on the nodes, -dE/dx, and with `damping` the viscous
   // forces of the velocities v: f is resized and overwritten.
   void forces(std::vector<Vec3d>& f) const;
