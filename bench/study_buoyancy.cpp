@@ -179,6 +179,10 @@ int main(int argc, char** argv) {
     const triad::RigidState held = w.bodies[0].state;
     solver.advanceTo(s.settle, [&](double) { w.bodies[0].state = held; });
   }
+  // Where the slab starts: its samples lie on the domain's lattice of
+  // spacing dx / 2, so its faces move to the nearest lattice plane, up to a
+  // quarter cell from the box's (and so does the water built round it).
+  const double start_error = (level() - bottom() - draft) / s.dx;
   const double wall0 = omp_get_wtime();
   const int n = int(std::round(s.time * 20));
   double mean_draft = 0;
@@ -277,10 +281,22 @@ int main(int argc, char** argv) {
       }
       std::printf("  film: %.3f of the water on the slab, highest %.4f above it, |vx| %.3f vy %.3f J %.4f\n", double(on) / double(all), hmax, fvx / on, fvy / on, fj / on);
     }
+    // An elastic slab's mean vertical velocity, and the mass-weighted RMS
+    // of its nodes' velocities about their mean (its vibration).
+    double vy = w.bodies.empty() ? 0.0 : w.bodies[0].state.v.y(), vib = 0.0;
+    if (w.bodies.empty() && !w.elastics.empty()) {
+      const triad::FemBody& f = w.elastics[0].fem;
+      Vec3d p = Vec3d::Zero();
+      for (size_t i = 0; i < f.nodes(); ++i) p += f.mass[i] * f.v[i];
+      const Vec3d mean = p / f.totalMass();
+      for (size_t i = 0; i < f.nodes(); ++i) vib += f.mass[i] * (f.v[i] - mean).squaredNorm();
+      vy = mean.y();
+      vib = std::sqrt(vib / f.totalMass());
+    }
     if (s.trace)
-      std::printf("t %.2f bottom %.4f level %.4f draft %.4f (%+.2f dx) v %.3f F/mg %.3f\n",
-                  k / 20.0, b, l, d, (d - draft) / s.dx,
-                  w.bodies.empty() ? 0.0 : w.bodies[0].state.v.y(), fy);
+      std::printf("t %.2f bottom %.4f level %.4f draft %.4f (%+.2f dx) v %.3f F/mg %.3f%s\n",
+                  k / 20.0, b, l, d, (d - draft) / s.dx, vy, fy,
+                  w.elastics.empty() ? "" : (" vibration " + std::to_string(vib)).c_str());
     if (k > n / 2) {
       mean_draft += d;
       ++counted;
@@ -346,10 +362,10 @@ int main(int argc, char** argv) {
     }
   }
   std::printf(
-      "%s %s thick %.0f cells ratio %.2f dx %.3f: draft %.4f (Archimedes %.4f, %+.2f dx), bottom "
-      "%.4f, wall %.1f s\n",
+      "%s %s thick %.0f cells ratio %.2f dx %.3f: draft %.4f (Archimedes %.4f, %+.2f dx; at the "
+      "start %+.2f dx), bottom %.4f, wall %.1f s\n",
       s.kind.c_str(), s.start.c_str(), s.thick, s.ratio, s.dx, mean_draft, draft,
-      (mean_draft - draft) / s.dx, bottom(), omp_get_wtime() - wall0);
+      (mean_draft - draft) / s.dx, start_error, bottom(), omp_get_wtime() - wall0);
   {
     const triad::PhaseTimes& pt = solver.phaseTimes();
     std::printf("steps %lld dt %.2e..%.2e; bin %.2f p2g %.2f grid %.2f g2p %.2f solids %.2f:",
