@@ -123,7 +123,7 @@ class FloatingSlab : public ::testing::TestWithParam<std::tuple<double, double>>
 // since the rigid collision solves a body's nodes together (Newton); with
 // the Jacobi passes alone, slabs whose faces lie close to a row of nodes
 // floated 0.3-0.5 dx too deep (bench/RESULTS.md, "Contact normals").
-// Placed elsewhere within about 0.4 dx of its draft a slab stays there too:
+// Placed elsewhere within about 0.8 dx of its draft a slab stays there too:
 // dropped, one rests high (bench/RESULTS.md, "The validation's slab rests
 // anywhere in a band"), which this test, started at the draft, does not see.
 // The start is at the draft only to within the samples' lattice (spacing
