@@ -281,22 +281,23 @@ int main(int argc, char** argv) {
       }
       std::printf("  film: %.3f of the water on the slab, highest %.4f above it, |vx| %.3f vy %.3f J %.4f\n", double(on) / double(all), hmax, fvx / on, fvy / on, fj / on);
     }
-    // An elastic slab's mean vertical velocity, and the mass-weighted RMS
-    // of its nodes' velocities about their mean (its vibration).
-    double vy = w.bodies.empty() ? 0.0 : w.bodies[0].state.v.y(), vib = 0.0;
-    if (w.bodies.empty() && !w.elastics.empty()) {
-      const triad::FemBody& f = w.elastics[0].fem;
-      Vec3d p = Vec3d::Zero();
-      for (size_t i = 0; i < f.nodes(); ++i) p += f.mass[i] * f.v[i];
-      const Vec3d mean = p / f.totalMass();
-      for (size_t i = 0; i < f.nodes(); ++i) vib += f.mass[i] * (f.v[i] - mean).squaredNorm();
-      vy = mean.y();
-      vib = std::sqrt(vib / f.totalMass());
-    }
-    if (s.trace)
+    if (s.trace) {
+      // An elastic slab's mean vertical velocity, and the mass-weighted RMS
+      // of its nodes' velocities about their mean (its vibration).
+      double vy = w.bodies.empty() ? 0.0 : w.bodies[0].state.v.y(), vib = 0.0;
+      if (w.bodies.empty() && !w.elastics.empty()) {
+        const triad::FemBody& f = w.elastics[0].fem;
+        Vec3d p = Vec3d::Zero();
+        for (size_t i = 0; i < f.nodes(); ++i) p += f.mass[i] * f.v[i];
+        const Vec3d mean = p / f.totalMass();
+        for (size_t i = 0; i < f.nodes(); ++i) vib += f.mass[i] * (f.v[i] - mean).squaredNorm();
+        vy = mean.y();
+        vib = std::sqrt(vib / f.totalMass());
+      }
       std::printf("t %.2f bottom %.4f level %.4f draft %.4f (%+.2f dx) v %.3f F/mg %.3f%s\n",
                   k / 20.0, b, l, d, (d - draft) / s.dx, vy, fy,
                   w.elastics.empty() ? "" : (" vibration " + std::to_string(vib)).c_str());
+    }
     if (k > n / 2) {
       mean_draft += d;
       ++counted;

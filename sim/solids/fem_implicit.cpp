@@ -166,15 +166,12 @@ Mat9<double> svdFrameDerivative(const ElasticModel& model, const Mat3d& F, bool 
 
 Eigen::Matrix<double, 12, 12> FemBody::elementStiffness(const std::vector<Vec3d>& y, size_t t,
                                                         bool psd) const {
-  return std::visit(
-      [&](const auto& mat) {
-        const Mat3d F = edges(y, mesh.tets[t]) * dm_inv[t];
-        const Eigen::Matrix<double, 9, 12> G = deformationJacobian(dm_inv[t]);
-        const Mat9<double> dP =
-            psd ? svdFrameDerivative(model, F, true) : mat.firstPiolaDerivative(F);
-        return Eigen::Matrix<double, 12, 12>(volume[t] * G.transpose() * dP * G);
-      },
-      model);
+  const Mat3d F = edges(y, mesh.tets[t]) * dm_inv[t];
+  const Eigen::Matrix<double, 9, 12> G = deformationJacobian(dm_inv[t]);
+  const Mat9<double> dP =
+      psd ? svdFrameDerivative(model, F, true)
+          : std::visit([&](const auto& mat) { return mat.firstPiolaDerivative(F); }, model);
+  return volume[t] * G.transpose() * dP * G;
 }
 
 FemBody::SolveStats FemBody::lastSolve() const {
