@@ -34,16 +34,26 @@ constexpr Tank kNarrow{0.5, 0.2, 0.04, 0.16};
 // 0.1 m of water all round the slab, as `study_buoyancy --wide` sets it up.
 constexpr Tank kWide{0.5, 0.32, 0.1, 0.22};
 
-// A slab `cells` thick of density ratio `ratio` to water; at rest on the
-// surface at Archimedes' draft, or submerged with its centre at mid-depth.
-World slabInWater(const std::string& name, double cells, double ratio, bool submerged,
+// Where a slab starts: at rest on the surface at Archimedes' draft,
+// submerged with its centre at mid-depth, or dropped 1 cm onto a block of
+// water 0.3 m square that slumps under it and sloshes across the tank (the
+// issue's third setup; the slab then spans x 0-0.3 m).
+enum class Start { Rest, Submerged, Dropped };
+
+// A slab `cells` thick of density ratio `ratio` to water, started as `start`.
+World slabInWater(const std::string& name, double cells, double ratio, Start start,
                   const Tank& tank = kNarrow, const json& solver = json::object(),
                   const std::string& kind = "rigid") {
   const double t = cells * kDx, x = tank.x, z = tank.z, sz0 = tank.sz0, sz1 = tank.sz1;
   const double share = tank.slabArea() / tank.area();
   std::vector<json> water;
-  double y0;
-  if (!submerged) {
+  double y0, sx0 = kSx0, sx1 = kSx1;
+  if (start == Start::Dropped) {
+    water = {box({0, 0, 0}, {0.3, 0.3, z})};
+    y0 = 0.31;
+    sx0 = 0.0;
+    sx1 = 0.3;
+  } else if (start == Start::Rest) {
     const double draft = ratio * t, level = kDepth + draft * share;
     y0 = level - draft;
     water = {box({0, 0, 0}, {x, y0, z}), box({0, y0, 0}, {kSx0, level, z}),
@@ -68,7 +78,7 @@ World slabInWater(const std::string& name, double cells, double ratio, bool subm
     j["objects"].push_back({{"name", "w" + std::to_string(k)}, {"kind", "mpm"},
                             {"material", "water"}, {"shape", water[k]}});
   json slab = {
-      {"name", "slab"}, {"kind", kind}, {"shape", box({kSx0, y0, sz0}, {kSx1, y0 + t, sz1})}};
+      {"name", "slab"}, {"kind", kind}, {"shape", box({sx0, y0, sz0}, {sx1, y0 + t, sz1})}};
   if (kind == "rigid")
     slab["density"] = 1000 * ratio;
   else
@@ -154,7 +164,7 @@ TEST_P(FloatingSlab, StaysAtArchimedesDraft) {
   const auto [cells, ratio] = GetParam();
   const std::string name = "floating_slab_" + std::to_string(int(cells)) + "_" +
                            std::to_string(int(std::round(10 * ratio)));
-  World w = slabInWater(name, cells, ratio, false);
+  World w = slabInWater(name, cells, ratio, Start::Rest);
   EXPECT_LT(std::abs(meanDraftError(w, "slab", cells, ratio, 0.5, 10)),
             draftTolerance(cells, ratio));
 }
@@ -183,7 +193,7 @@ TEST_P(FloatingElasticSlab, StaysAtArchimedesDraft) {
   const auto [cells, ratio] = GetParam();
   const std::string name = "floating_elastic_slab_" + std::to_string(int(cells)) + "_" +
                            std::to_string(int(std::round(10 * ratio)));
-  World w = slabInWater(name, cells, ratio, false, kNarrow, json::object(), "elastic");
+  World w = slabInWater(name, cells, ratio, Start::Rest, kNarrow, json::object(), "elastic");
   ASSERT_EQ(w.elastics.size(), 1u);
   // It settles within 0.3 s (3 cells, ratio 0.8, from its lowest node:
   // +0.14 dx at 0.05 s, +0.21 at 0.3 s, +0.18-0.19 from 0.4 s to 1 s): the
@@ -195,6 +205,32 @@ TEST_P(FloatingElasticSlab, StaysAtArchimedesDraft) {
 INSTANTIATE_TEST_SUITE_P(ThicknessAndRatio, FloatingElasticSlab,
                          ::testing::Values(std::make_tuple(2.0, 0.2), std::make_tuple(3.0, 0.8)));
 
+// Dropped 1 cm onto a block of water that slumps under it, light slabs end
+// floating: their mean draft over 1.5-3 s within 0.5 dx of Archimedes'
+// while the tank still sloshes and heaves them by up to 0.7 dx. With the
+// issue's code the 3-cell slab of ratio 0.5 ended near the floor, covered
+// by water. Measured (study_buoyancy --start dropped, 3 s), ratio 0.2 /
+// 0.5: 2 cells -0.29 / -0.07 dx, 3 cells -0.24 / -0.29, 4 cells -0.25 /
+// -0.24, 6 cells +0.34 / +0.20. Not asserted, as they miss item 2: at
+// ratio 0.8 the 2-4 cell slabs plunge under the surface and stay there
+// (+0.75 to +1.21 dx), held down by water on their top, which cannot drain
+// at the default reach, and by the stall; slabs of ratio 1.5 are still
+// 4-8 cm above the floor after 3 s (bench/RESULTS.md, "Slabs dropped into
+// moving water").
+class DroppedSlab : public ::testing::TestWithParam<std::tuple<double, double>> {};
+
+TEST_P(DroppedSlab, LightOnesFloat) {
+  const auto [cells, ratio] = GetParam();
+  const std::string name =
+      "dropped_" + std::to_string(int(cells)) + "_" + std::to_string(int(std::round(10 * ratio)));
+  World w = slabInWater(name, cells, ratio, Start::Dropped);
+  EXPECT_LT(std::abs(meanDraftError(w, "dropped", cells, ratio, 1.5, 30)), 0.5);
+}
+
+INSTANTIATE_TEST_SUITE_P(ThicknessAndRatio, DroppedSlab,
+                         ::testing::Values(std::make_tuple(2.0, 0.5), std::make_tuple(3.0, 0.2),
+                                           std::make_tuple(3.0, 0.5), std::make_tuple(6.0, 0.5)));
+
 // Released under water at mid-depth, 3 cells thick: a slab of 1.5 times
 // water's density sinks, one of water's density stays within a cell of
 // where it was put over 2 s. Measured: the dense one's bottom falls 0.0069 m
@@ -204,7 +240,7 @@ INSTANTIATE_TEST_SUITE_P(ThicknessAndRatio, FloatingElasticSlab,
 // the neutral one moves 0.0022 m at most.
 TEST(SubmergedSlab, DenseSinksNeutralStays) {
   {
-    World w = slabInWater("submerged_dense", 3, 1.5, true);
+    World w = slabInWater("submerged_dense", 3, 1.5, Start::Submerged);
     const double start = slabBottom(w, 3);
     Solver solver(w);
     solver.advanceTo(1.0);
@@ -212,7 +248,7 @@ TEST(SubmergedSlab, DenseSinksNeutralStays) {
     EXPECT_LT(slabBottom(w, 3), start - 0.25 * kDx);
   }
   {
-    World w = slabInWater("submerged_neutral", 3, 1.0, true);
+    World w = slabInWater("submerged_neutral", 3, 1.0, Start::Submerged);
     const double start = slabBottom(w, 3);
     Solver solver(w);
     double furthest = 0;
@@ -239,7 +275,8 @@ TEST(SubmergedSlab, DenseSinksNeutralStays) {
 // correctness.
 TEST(SubmergedSlab, RisesAndFloatsWithFrontFields) {
   const double ratio = 0.5;
-  World w = slabInWater("submerged_fronts", 3, ratio, true, kWide, {{"front_fields", true}});
+  World w =
+      slabInWater("submerged_fronts", 3, ratio, Start::Submerged, kWide, {{"front_fields", true}});
   const double start = slabBottom(w, 3), archimedes = ratio * 3 * kDx;
   auto draft = [&]() { return waterLevel(w, 3, kWide) - slabBottom(w, 3); };
   const double draft0 = draft();
