@@ -184,6 +184,8 @@ int main(int argc, char** argv) {
   // quarter cell from the box's (and so does the water built round it).
   const double start_error = (level() - bottom() - draft) / s.dx;
   const double wall0 = omp_get_wtime();
+  const triad::Mat3d rotation0 =
+      w.bodies.empty() ? triad::Mat3d::Identity() : w.bodies[0].rotation();
   const int n = int(std::round(s.time * 20));
   double mean_draft = 0;
   int counted = 0;
@@ -246,14 +248,24 @@ int main(int argc, char** argv) {
 
     if (s.trace) {
       // Water particles inside the slab's box (none should be), and how
-      // many lie within half a cell outside its faces.
+      // many lie within half a cell outside its faces. A rigid slab's box
+      // moves and turns with it (a dropped slab drifts and tilts); an
+      // elastic one's is taken upright over its start, at its bottom.
+      const Vec3d half(0.5 * (sx1 - sx0), 0.5 * t, 0.5 * (kSz1 - kSz0));
+      const Vec3d centre = w.bodies.empty()
+                               ? Vec3d(0.5 * (sx0 + sx1), b + 0.5 * t, 0.5 * (kSz0 + kSz1))
+                               : w.bodies[0].state.x;
+      // Back to the slab's frame at the start: the body's own frame is its
+      // principal axes', which may order the box's axes otherwise.
+      const triad::Mat3d turn = w.bodies.empty()
+                                    ? triad::Mat3d::Identity()
+                                    : (rotation0 * w.bodies[0].rotation().transpose()).eval();
       size_t inside = 0, skin = 0;
       for (const triad::ParticleSet& set : w.sets)
         for (size_t i = 0; i < set.size(); ++i) {
           if (set.object[i] == slab_object) continue;
-          const triad::Vec3f& x = set.x[i];
-          const double e = std::max({sx0 - x.x(), x.x() - sx1, b - x.y(), x.y() - b - t,
-                                     kSz0 - x.z(), x.z() - kSz1});
+          const Vec3d r = turn * (set.x[i].cast<double>() - centre);
+          const double e = (r.cwiseAbs() - half).maxCoeff();
           inside += e < 0;
           skin += e >= 0 && e < 0.5 * s.dx;
         }
