@@ -19,6 +19,7 @@
 // water stays where it was put for the unshifted slab); STUDY_FLOW=1
 // prints the water's flux down past the slab against what an
 // incompressible fluid must carry, and the water's speed under and over it.
+// STUDY_VY starts the slab moving vertically at that speed (m/s).
 // STUDY_DAMPING gives an elastic slab that Kelvin-Voigt viscosity (Pa s).
 // STUDY_SPHERE=1 puts a sphere of diameter CELLS * 0.02 m in place of the
 // slab; STUDY_SURFACE=1 prints the water surface across the slab and the
@@ -134,6 +135,7 @@ int main(int argc, char** argv) {
   else slab["material"] = "solid";
   if (s.fixed) slab["fixed"] = true;
   if (s.implicit) slab["integrator"] = "implicit";
+  if (getenv("STUDY_VY")) slab["velocity"] = {0, std::stod(getenv("STUDY_VY")), 0};
   if (getenv("STUDY_DAMPING") && s.kind == "elastic")
     slab["damping"] = std::stod(getenv("STUDY_DAMPING"));
   if (getenv("STUDY_FRICTION")) slab["friction"] = std::stod(getenv("STUDY_FRICTION"));
