@@ -51,8 +51,8 @@ World slabInWater(const std::string& name, double cells, double ratio, Start sta
   if (start == Start::Dropped) {
     water = {box({0, 0, 0}, {0.3, 0.3, z})};
     y0 = 0.31;
-    sx0 = 0.0;
-    sx1 = 0.3;
+    sx0 = 0.0;  // the same slab, over the block (waterLevel takes its area)
+    sx1 = kSx1 - kSx0;
   } else if (start == Start::Rest) {
     const double draft = ratio * t, level = kDepth + draft * share;
     y0 = level - draft;
