@@ -16,6 +16,8 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 
+#include "sim/mpm/particles.h"
+#include "sim/solids/elastic_contact.h"
 #include "sim/solids/elastic_solid.h"
 #include "sim/solids/fem.h"
 #include "sim/solids/tet_mesh.h"
@@ -527,6 +529,66 @@ TEST(ElasticSolid, NodesCarryTheirDistanceAtRest) {
   }
   EXPECT_EQ(boundary, 5 * 5 * 7 - 3 * 3 * 5);
   EXPECT_EQ(under_a_face, 6 + 6 + 2);
+}
+
+// A particle found inside an elastic solid leaves it through an inelastic
+// collision with the solid's point under it: momentum kept, no kinetic
+// energy made, and the two moving alike along the face's normal after.
+// A water particle can outweigh a light solid's corner node thirty times:
+// handing the node the particle's whole approach momentum threw it off at
+// many times the particle's speed.
+TEST(ElasticSolid, ParticlePushedOutMeetsTheSolidInelastically) {
+  const double h = 0.02, dt = 1e-4;
+  for (const double ratio : {30.0, 0.03}) {  // particle mass over the corner node's
+    ElasticSolid e = elasticBox(Vec3d::Zero(), {2, 2, 2}, h, false);
+    const FemBody& fem = e.fem;
+    const double corner = *std::min_element(fem.mass.begin(), fem.mass.end());
+    ParticleSet set;
+    set.mass = float(ratio * corner);
+    // Just under the top face, near a corner, moving down into the solid.
+    const Vec3d x0(0.1 * h, 2 * h - 0.05 * h, 0.1 * h), v0(0.3, -1.0, 0.2);
+    set.push(x0.cast<float>(), v0.cast<float>(), 0, 0);
+    std::vector<ParticleSet> sets{set};
+    const std::vector<std::vector<uint32_t>> offsets{{0, 1}};
+    ParticleBlocks blocks;
+    blocks.offsets = &offsets;
+    blocks.centre = {x0};
+    blocks.radius = h;
+    ASSERT_EQ(pushParticlesOut(e, sets, dt, blocks), 1u) << ratio;
+
+    const double mp = double(set.mass);
+    const Vec3d vp = sets[0].v[0].cast<double>();
+    Vec3d momentum = mp * vp;
+    double energy = 0.5 * mp * vp.squaredNorm();
+    for (size_t i = 0; i < fem.nodes(); ++i) {
+      momentum += fem.mass[i] * fem.v[i];
+      energy += 0.5 * fem.mass[i] * fem.v[i].squaredNorm();
+    }
+    const double before = 0.5 * mp * v0.squaredNorm();
+    EXPECT_LT((momentum - mp * v0).norm(), 1e-6 * mp) << ratio;
+    EXPECT_LE(energy, before) << ratio;
+    // On the face, moving with the solid's point where it was found (its
+    // tetrahedron's barycentric weights) along the face's normal, up.
+    EXPECT_NEAR(double(sets[0].x[0].y()), 2 * h, 1e-6) << ratio;
+    double vb = std::nan("");
+    for (const auto& t : fem.mesh.tets) {
+      Mat3d E;
+      for (int k = 0; k < 3; ++k) E.col(k) = fem.x[size_t(t[k + 1])] - fem.x[size_t(t[0])];
+      const Vec3d l = E.inverse() * (x0 - fem.x[size_t(t[0])]);
+      if (l.minCoeff() < -1e-9 || l.sum() > 1 + 1e-9) continue;
+      vb = (1 - l.sum()) * fem.v[size_t(t[0])].y();
+      for (int k = 0; k < 3; ++k) vb += l[k] * fem.v[size_t(t[k + 1])].y();
+      break;
+    }
+    EXPECT_NEAR(vp.y(), vb, 1e-6) << ratio;
+    // A light particle is stopped; a heavy one keeps most of its speed.
+    if (ratio < 1.0)
+      EXPECT_NEAR(vp.y(), 0.0, 0.05) << ratio;
+    else
+      EXPECT_LT(vp.y(), -0.5) << ratio;
+    // Tangential motion passes through.
+    EXPECT_NEAR(vp.x(), v0.x(), 1e-6) << ratio;
+  }
 }
 
 // The node normals the poses read from the forces' kept F^-T are those

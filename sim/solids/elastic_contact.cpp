@@ -453,18 +453,27 @@ size_t pushParticlesOut(ElasticSolid& b, std::vector<ParticleSet>& sets, double 
     for (const Hit& h : hits) {
       const bool own = h.process == me;
       const Penetration& pen = h.pen;
-      // Onto the face; the approach velocity goes to the solid's nodes
-      // under the particle, by barycentric weight.
+      // Onto the face, and the approach stopped by an inelastic impulse
+      // between the particle and the solid's point under it (the pair's
+      // reduced mass, the nodes' share by barycentric weight). A particle
+      // may outweigh the nodes it meets (water on a light solid's corner
+      // node, 30 to 1): handing them its whole approach momentum threw
+      // them off at many times its speed, and backward Euler let those
+      // kicks grow until the run blew up.
       if (own) set.x[h.p] = (h.x - pen.depth * pen.normal).cast<float>();
       const auto& n = fb.mesh.tets[size_t(pen.tet)];
       Vec3d vb = Vec3d::Zero();
-      for (int k = 0; k < 4; ++k) vb += pen.w[size_t(k)] * fb.v[size_t(n[k])];
+      double inv_b = 0.0;
+      for (int k = 0; k < 4; ++k) {
+        vb += pen.w[size_t(k)] * fb.v[size_t(n[k])];
+        inv_b += pen.w[size_t(k)] * pen.w[size_t(k)] * inverseMass(fb, n[k]);
+      }
       const double vn = pen.normal.dot(h.v - vb);
       if (vn < 0.0) {
-        if (own) set.v[h.p] = (h.v - vn * pen.normal).cast<float>();
+        const double j = -vn / (1.0 / mp + inv_b);  // along the normal, onto the particle
+        if (own) set.v[h.p] = (h.v + (j / mp) * pen.normal).cast<float>();
         for (int k = 0; k < 4; ++k)
-          if (!fb.pinned[size_t(n[k])])
-            fb.v[size_t(n[k])] += (pen.w[size_t(k)] * mp * vn / fb.mass[size_t(n[k])]) * pen.normal;
+          fb.v[size_t(n[k])] -= (pen.w[size_t(k)] * j * inverseMass(fb, n[k])) * pen.normal;
       }
       moved += own ? 1 : 0;
     }
