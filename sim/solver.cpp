@@ -832,27 +832,43 @@ void Solver::constrainElastic(ElasticSolid& e, size_t first, double dt) {
         }
       }
   }
-  // Rigid bodies: a node inside one is pushed back to its surface, and its
-  // sliding along it is reduced by Coulomb friction (the pair's geometric
-  // mean) within what the push bounds; the body takes the momentum.
-  // (Implicit solids met them in their solve.) The nodes inside are found
-  // in parallel (where a node ends depends on the body's pose, not on its
-  // velocity), then pushed in node order, each against the body's velocity
-  // that the nodes before it left.
+  // Rigid bodies: a node that would end the step inside one (against the
+  // body's surface moved on by its velocity) meets it in an inelastic
+  // collision that ends it on the surface, the impulse shared by the
+  // node's and the body's inverse masses at the node (the body's turning
+  // included), its sliding reduced by Coulomb friction (the pair's
+  // geometric mean) within what the push bounds. (Implicit solids met them
+  // in their solve.) Pushing the node against the body's pose alone, the
+  // body taking its whole change, threw a body lighter than the nodes under
+  // it off them, and against a body lifting off the nodes that followed it
+  // pushed it on: a ball dropped on a jelly bounced higher than it fell.
+  // The nodes inside are found in parallel, then pushed in node order, each
+  // against the body's velocity that the nodes before it left.
   for (size_t k = 0; k < world_.bodies.size() && !e.implicit; ++k) {
     RigidBody& b = world_.bodies[k];
     const Mat3d R = b.rotation();
     const double mu_pair = std::sqrt(double(e.friction) * double(b.friction));
+    // The depth from the envelope of the samples' planes round x, which
+    // answers in the cells just outside the samples too: the nearest
+    // sample's plane alone answers only in cells that hold a sample, and a
+    // node came into such a cell up to a cell deep, to be thrown out.
+    auto depthAt = [&](const Vec3d& x, Vec3d& n, Vec3d& vb) {
+      const int q = b.supportAt(x, R);
+      if (q < 0) return 0.0;
+      n = b.sampleNormal(size_t(q), R);
+      const double phi = double(b.phi[size_t(q)]) + n.dot(x - b.samplePosition(size_t(q), R));
+      vb = b.placed ? b.sampleVelocity(size_t(q), R) : b.velocityAt(x);
+      return dt * vb.dot(n) - phi;
+    };
     std::vector<uint32_t> inside;
 #pragma omp parallel if (nodes > 2048)
     {
       std::vector<uint32_t> mine;
 #pragma omp for schedule(static) nowait
       for (int64_t i = 0; i < nodes; ++i) {
-        double phi;
         Vec3d n, vb;
-        const Vec3d x = fem.x[size_t(i)] + dt * fem.v[size_t(i)];
-        if (b.surfaceAt(x, R, phi, n, vb) && phi < 0.0) mine.push_back(uint32_t(i));
+        if (depthAt(fem.x[size_t(i)] + dt * fem.v[size_t(i)], n, vb) > 0.0)
+          mine.push_back(uint32_t(i));
       }
 #pragma omp critical
       inside.insert(inside.end(), mine.begin(), mine.end());
@@ -860,17 +876,29 @@ void Solver::constrainElastic(ElasticSolid& e, size_t first, double dt) {
     std::sort(inside.begin(), inside.end());
     for (const uint32_t i : inside) {
       const Vec3d x = fem.x[i] + dt * fem.v[i];
-      double phi;
       Vec3d n, vb;
-      b.surfaceAt(x, R, phi, n, vb);
-      Vec3d dv = (-phi / dt) * n;
-      const Vec3d u = fem.v[i] + dv - vb;
+      const double depth = depthAt(x, n, vb);
+      if (depth <= 0.0) continue;  // the nodes before it moved the body away
+      // The inverse mass that an impulse along d at x meets.
+      const double inv_node = fem.pinned[i] ? 0.0 : 1.0 / fem.mass[i];
+      const Vec3d arm = x - b.state.x;
+      auto inverseMass = [&](const Vec3d& d) {
+        const Vec3d a = arm.cross(d);
+        return inv_node + (b.fixed ? 0.0 : 1.0 / b.mass + a.dot(b.applyInverseInertia(a)));
+      };
+      if (inverseMass(n) <= 0.0) continue;  // a pinned node on a fixed body
+      const double jn = depth / dt / inverseMass(n);
+      Vec3d j = jn * n;  // onto the node
+      const Vec3d u = fem.v[i] - vb;
       const Vec3d ut = u - u.dot(n) * n;
       const double slide = ut.norm();
-      if (slide > 0.0) dv -= std::min(mu_pair * (-phi / dt), slide) / slide * ut;
-      fem.v[i] += dv;
-      b.applyImpulse(-fem.mass[i] * dv, x);
-      addLoad(k, -fem.mass[i] * dv, x);
+      if (slide > 0.0) {
+        const Vec3d t = ut / slide;
+        j -= std::min(mu_pair * jn, slide / inverseMass(t)) * t;
+      }
+      fem.v[i] += inv_node * j;
+      b.applyImpulse(-j, x);
+      addLoad(k, -j, x);
     }
   }
 }

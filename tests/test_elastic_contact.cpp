@@ -125,6 +125,65 @@ TEST(ImplicitContact, RigidBallRestsOnImplicitCube) {
   EXPECT_GT(e.hi.y(), 0.14);
 }
 
+// A rigid ball (radius 4 cm) dropped 5 mm onto an explicit jelly slab
+// (E 1e5 Pa, 8 cm thick, undamped) on the floor, one as dense as the jelly
+// and one a hundredth of it: neither may rise above where it was dropped
+// from, and both stay on the slab. Measured over 0.5 s: after landing the
+// dense ball bounces on the ringing jelly to 0.4 mm under its start, the
+// light one to 1.1 mm under it. The nodes under a ball used to be found
+// only once inside a cell that holds one of its samples, up to a cell
+// deep, and were thrown out at that depth over one step, the ball taking
+// their whole change: the light ball was thrown 23 cm up and off the slab
+// (this test fails); the dense one bounced 16 mm above its start, spinning
+// at 15 rad/s, in the same scene run at 24 frames a second (here, stepped
+// to other frame times, it stays 2.3 mm under: its bounce was chaotic).
+// Not asserted: both still roll slowly along a diagonal (the dense one at
+// 2 cm/s by 0.5 s, the light one at 13 cm/s, spinning at 0.6 and 3.6
+// rad/s), as the undamped explicit stack rocks (ElasticStack, below).
+class BallOnJelly : public ::testing::TestWithParam<double> {};
+
+TEST_P(BallOnJelly, BouncesNoHigherThanItFell) {
+  const double density = GetParam(), r = 0.04;
+  const std::string name = "ball_on_jelly_" + std::to_string(int(density));
+  json j = test::baseScene(name, {0.4, 0.4, 0.4}, 0.02);
+  j["materials"]["jelly"] = {{"model", "fixed_corotated"},
+                             {"density", 1000},
+                             {"youngs_modulus", 1e5},
+                             {"poisson_ratio", 0.3}};
+  j["objects"].push_back({{"name", "slab"},
+                          {"kind", "elastic"},
+                          {"material", "jelly"},
+                          {"friction", 0.5},
+                          {"shape", box({0.1, 0, 0.1}, {0.3, 0.08, 0.3})}});
+  World w = test::loadWorld(test::tempDir(name), j);
+  const double top = extent(w.elastics[0].fem).hi.y(), start = top + r + 0.005;
+  j["objects"].push_back({{"name", "ball"},
+                          {"kind", "rigid"},
+                          {"density", density},
+                          {"friction", 0.5},
+                          {"shape", {{"sphere", {{"center", {0.2, start, 0.2}}, {"radius", r}}}}}});
+  w = test::loadWorld(test::tempDir(name), j);
+  const RigidBody& ball = w.bodies[0];
+  Solver solver(w);
+  double highest = -1.0;
+  bool landed = false;
+  for (int k = 1; k <= 100; ++k) {
+    solver.advanceTo(0.005 * k);
+    landed = landed || ball.state.v.y() > 0.0;
+    if (landed) highest = std::max(highest, ball.state.x.y());
+  }
+  std::printf(
+      "ball of density %.0f on a jelly: highest after landing %+.2f mm from its start, "
+      "at 0.5 s %.4f m, rolling at %.3f m/s\n",
+      density, 1e3 * (highest - start), ball.state.x.y(),
+      std::hypot(ball.state.v.x(), ball.state.v.z()));
+  ASSERT_TRUE(landed);
+  EXPECT_LT(highest, start);
+  EXPECT_GT(ball.state.x.y(), top);  // on the slab, not through it or off it
+}
+
+INSTANTIATE_TEST_SUITE_P(Densities, BallOnJelly, ::testing::Values(1000.0, 10.0));
+
 json jelly() {
   return {{"model", "fixed_corotated"}, {"density", 1000}, {"youngs_modulus", 2e4},
           {"poisson_ratio", 0.3}};
