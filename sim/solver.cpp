@@ -853,11 +853,9 @@ void Solver::constrainElastic(ElasticSolid& e, size_t first, double dt) {
     // sample's plane alone answers only in cells that hold a sample, and a
     // node came into such a cell up to a cell deep, to be thrown out.
     auto depthAt = [&](const Vec3d& x, Vec3d& n, Vec3d& vb) {
-      const int q = b.supportAt(x, R);
-      if (q < 0) return 0.0;
-      n = b.sampleNormal(size_t(q), R);
-      const double phi = double(b.phi[size_t(q)]) + n.dot(x - b.samplePosition(size_t(q), R));
-      vb = b.placed ? b.sampleVelocity(size_t(q), R) : b.velocityAt(x);
+      double phi;
+      if (!b.envelopeAt(x, R, phi, n)) return 0.0;
+      vb = b.placed ? b.sampleVelocity(size_t(b.supportAt(x, R)), R) : b.velocityAt(x);
       return dt * vb.dot(n) - phi;
     };
     std::vector<uint32_t> inside;

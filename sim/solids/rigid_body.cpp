@@ -142,6 +142,35 @@ int RigidBody::supportAt(const Vec3d& p, const Mat3d& R) const {
   return best;
 }
 
+bool RigidBody::envelopeAt(const Vec3d& p, const Mat3d& R, double& phi_out, Vec3d& n_out) const {
+  const int best = supportAt(p, R);
+  if (best < 0) return false;
+  auto planeAt = [&](int q) {
+    return double(phi[size_t(q)]) +
+           sampleNormal(size_t(q), R).dot(p - samplePosition(size_t(q), R));
+  };
+  phi_out = planeAt(best);
+  if (placed) {
+    n_out = sampleNormal(size_t(best), R);
+    return true;
+  }
+  // Planes within a quarter spacing of the envelope, weighted down to zero
+  // at that distance.
+  const double band = 0.25 * double(spacing);
+  const Eigen::Vector3i mid = latticeCell(p);
+  Vec3d sum = Vec3d::Zero();
+  for (int i = -1; i <= 1; ++i)
+    for (int j = -1; j <= 1; ++j)
+      for (int k = -1; k <= 1; ++k) {
+        const int q = sampleIn(mid + Eigen::Vector3i(i, j, k));
+        if (q < 0) continue;
+        const double w = 1.0 - (phi_out - planeAt(q)) / band;
+        if (w > 0.0) sum += w * n[size_t(q)].cast<double>();
+      }
+  n_out = R * sum.normalized();
+  return true;
+}
+
 LatticeBox RigidBody::latticeBox() const {
   LatticeBox box;
   box.centre = state.x;
