@@ -547,7 +547,8 @@ FemContacts Solver::elasticContacts(const ElasticSolid& e, double dt) {
   c.hi = contact_.hi;
   c.wall_friction = wallFriction();
   // Rigid bodies: a node headed inside one meets the plane of its surface
-  // at the nearest sample, moved on by the body's velocity over the step.
+  // there (the envelope of the samples' planes, its normal blended where
+  // they nearly tie), moved on by the body's velocity over the step.
   contact_bodies_.clear();
   contact_surface_.clear();
   for (size_t k = 0; k < world_.bodies.size(); ++k) {
@@ -557,14 +558,16 @@ FemContacts Solver::elasticContacts(const ElasticSolid& e, double dt) {
     for (size_t i = 0; i < fem.nodes(); ++i) {
       const Vec3d y = fem.x[i] + dt * fem.v[i];
       if ((y - b.state.x).squaredNorm() > double(b.radius) * b.radius) continue;
-      const int q = b.supportAt(y, R);
-      if (q < 0) continue;
+      double phi;
+      Vec3d n;
+      if (!b.envelopeAt(y, R, phi, n)) continue;
       NodePlane& pl = c.planes.emplace_back();
       pl.node = int(i);
-      pl.n = b.sampleNormal(size_t(q), R);
-      const Vec3d surface = b.samplePosition(size_t(q), R) - double(b.phi[q]) * pl.n;
+      pl.n = n;
+      const Vec3d surface = y - phi * n;
       // A deforming collider's surface moves as its sample does.
-      pl.velocity = b.deform ? b.sampleVelocity(size_t(q), R) : b.velocityAt(surface);
+      pl.velocity =
+          b.deform ? b.sampleVelocity(size_t(b.supportAt(y, R)), R) : b.velocityAt(surface);
       // A node already inside stays no deeper, rather than being thrown out
       // with the velocity of its whole penetration (which would add energy):
       // moveElastic moves it out, position only.
