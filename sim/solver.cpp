@@ -560,14 +560,14 @@ FemContacts Solver::elasticContacts(const ElasticSolid& e, double dt) {
       if ((y - b.state.x).squaredNorm() > double(b.radius) * b.radius) continue;
       double phi;
       Vec3d n;
-      if (!b.envelopeAt(y, R, phi, n)) continue;
+      const int q = b.envelopeAt(y, R, phi, n);
+      if (q < 0) continue;
       NodePlane& pl = c.planes.emplace_back();
       pl.node = int(i);
       pl.n = n;
       const Vec3d surface = y - phi * n;
       // A deforming collider's surface moves as its sample does.
-      pl.velocity =
-          b.deform ? b.sampleVelocity(size_t(b.supportAt(y, R)), R) : b.velocityAt(surface);
+      pl.velocity = b.deform ? b.sampleVelocity(size_t(q), R) : b.velocityAt(surface);
       // A node already inside stays no deeper, rather than being thrown out
       // with the velocity of its whole penetration (which would add energy):
       // moveElastic moves it out, position only.
@@ -857,8 +857,9 @@ void Solver::constrainElastic(ElasticSolid& e, size_t first, double dt) {
     // node came into such a cell up to a cell deep, to be thrown out.
     auto depthAt = [&](const Vec3d& x, Vec3d& n, Vec3d& vb) {
       double phi;
-      if (!b.envelopeAt(x, R, phi, n)) return 0.0;
-      vb = b.placed ? b.sampleVelocity(size_t(b.supportAt(x, R)), R) : b.velocityAt(x);
+      const int q = b.envelopeAt(x, R, phi, n);
+      if (q < 0) return 0.0;
+      vb = b.placed ? b.sampleVelocity(size_t(q), R) : b.velocityAt(x);
       return dt * vb.dot(n) - phi;
     };
     std::vector<uint32_t> inside;
@@ -887,8 +888,9 @@ void Solver::constrainElastic(ElasticSolid& e, size_t first, double dt) {
         const Vec3d a = arm.cross(d);
         return inv_node + (b.fixed ? 0.0 : 1.0 / b.mass + a.dot(b.applyInverseInertia(a)));
       };
-      if (inverseMass(n) <= 0.0) continue;  // a pinned node on a fixed body
-      const double jn = depth / dt / inverseMass(n);
+      const double inv_n = inverseMass(n);
+      if (inv_n <= 0.0) continue;  // a pinned node on a fixed body
+      const double jn = depth / dt / inv_n;
       Vec3d j = jn * n;  // onto the node
       const Vec3d u = fem.v[i] - vb;
       const Vec3d ut = u - u.dot(n) * n;

@@ -142,9 +142,9 @@ int RigidBody::supportAt(const Vec3d& p, const Mat3d& R) const {
   return best;
 }
 
-bool RigidBody::envelopeAt(const Vec3d& p, const Mat3d& R, double& phi_out, Vec3d& n_out) const {
+int RigidBody::envelopeAt(const Vec3d& p, const Mat3d& R, double& phi_out, Vec3d& n_out) const {
   const int best = supportAt(p, R);
-  if (best < 0) return false;
+  if (best < 0) return -1;
   auto planeAt = [&](int q) {
     return double(phi[size_t(q)]) +
            sampleNormal(size_t(q), R).dot(p - samplePosition(size_t(q), R));
@@ -152,7 +152,7 @@ bool RigidBody::envelopeAt(const Vec3d& p, const Mat3d& R, double& phi_out, Vec3
   phi_out = planeAt(best);
   if (placed) {
     n_out = sampleNormal(size_t(best), R);
-    return true;
+    return best;
   }
   // Planes within a quarter spacing of the envelope, weighted down to zero
   // at that distance.
@@ -168,7 +168,7 @@ bool RigidBody::envelopeAt(const Vec3d& p, const Mat3d& R, double& phi_out, Vec3
         if (w > 0.0) sum += w * n[size_t(q)].cast<double>();
       }
   n_out = R * sum.normalized();
-  return true;
+  return best;
 }
 
 LatticeBox RigidBody::latticeBox() const {

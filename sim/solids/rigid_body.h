@@ -136,9 +136,10 @@ struct RigidBody {
   // normal blended over the planes that lie within a quarter of the sample
   // spacing of it: where several samples' planes nearly tie (under a
   // ball's lowest point, four samples tilted along the diagonals), the
-  // envelope's own normal is the tilt of whichever wins by rounding. False
-  // where supportAt finds no sample.
-  bool envelopeAt(const Vec3d& p, const Mat3d& R, double& phi_out, Vec3d& n_out) const;
+  // envelope's own normal is the tilt of whichever wins by rounding.
+  // Returns supportAt's sample (whose velocity is a deforming collider's
+  // surface velocity there), or -1 where it finds none.
+  int envelopeAt(const Vec3d& p, const Mat3d& R, double& phi_out, Vec3d& n_out) const;
   // Sample q as it is now, world: position, outward normal, velocity. A
   // deforming collider's are where its surface has carried them.
   Vec3d samplePosition(size_t q, const Mat3d& R) const;
