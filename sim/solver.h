@@ -159,6 +159,9 @@ class Solver {
   void emitSources();
   void drainSinks(double dt);
   void predictSolids(double dt);
+  // An elastic solid's velocities before the grid: its forces over the
+  // step, explicit or solved implicitly against walls and rigid bodies.
+  void predictElastic(ElasticSolid& e, double dt, const Vec3d& g);
   void scatterSolids();
   void collideSolids();
   void advanceSolids(double dt);

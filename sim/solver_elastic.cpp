@@ -1,0 +1,261 @@
+// The solver's steps for elastic solids: their velocities before the grid
+// (explicit forces, or the implicit solve against walls and rigid bodies),
+// their constraints after it, and their motion.
+
+#include <algorithm>
+#include <cmath>
+#include <optional>
+#include <sstream>
+
+#include "sim/errors.h"
+#include "sim/phase_timer.h"
+#include "sim/solver.h"
+
+namespace triad {
+
+void Solver::predictElastic(ElasticSolid& e, double dt, const Vec3d& g) {
+  SolidsTimes& parts = times_.solid_parts;
+  FemBody& fem = e.fem;
+  std::optional<PhaseTimer> part(std::in_place, parts.elastic_forces);
+  if (e.implicit) {
+    FemContacts contacts = elasticContacts(e, dt);
+    // The bodies take the reaction of the contacts in the solve. A body
+    // that moves is pushed back in turn, so its planes are moved on with
+    // its velocity after the reaction and the solid solved again (block
+    // Gauss-Seidel): one staggered pass would let a stiff solid be
+    // squeezed by the body's full approach and then throw it back with
+    // more energy than it came with.
+    bool dynamic = false;
+    for (const auto& cb : contact_bodies_) dynamic |= !world_.bodies[cb.second].fixed;
+    std::vector<RigidState> before;
+    for (const RigidBody& b : world_.bodies) before.push_back(b.state);
+    for (int pass = 0;; ++pass) {
+      fem.implicitVelocities(dt, g, fem_force_, &contacts);
+      for (size_t k = 0; k < world_.bodies.size(); ++k) world_.bodies[k].state = before[k];
+      const bool last = !dynamic || pass == kContactPasses - 1;
+      for (const auto& [plane, body] : contact_bodies_)
+        if (contacts.planes[plane].impulse > 0.0) {
+          // At the surface point, on the normal's line: a sphere's normal
+          // impulse has no moment about its centre.
+          const NodePlane& pl = contacts.planes[plane];
+          const Vec3d j = -(pl.impulse * pl.n + pl.friction_impulse);
+          world_.bodies[body].applyImpulse(j, contact_surface_[plane]);
+          if (last) addLoad(body, j, contact_surface_[plane]);
+        }
+      if (last) break;
+      for (const auto& [plane, body] : contact_bodies_) {
+        if (world_.bodies[body].fixed) continue;  // moved by nothing here
+        NodePlane& pl = contacts.planes[plane];
+        const Vec3d surface = contact_surface_[plane];
+        pl.velocity = world_.bodies[body].velocityAt(surface);
+        pl.b = pl.n.dot(surface + dt * pl.velocity);
+      }
+    }
+    fem.v.swap(fem_force_);
+  } else {
+    fem.forces(fem_force_);
+    for (size_t i = 0; i < fem.nodes(); ++i) fem.v[i] += dt * (fem_force_[i] / fem.mass[i] + g);
+  }
+  part.emplace(parts.poses);
+  points_.addSolid(0.0f, e.friction, SolidKind::Moving, 0.0);
+  // Each node carries its distance at rest along its normal now, as a
+  // rigid sample does: the distance's normal and the contact reach apply
+  // to elastic solids too (with the summed normals a jelly dropped on sand
+  // came to rest 0.35 dx off it). The collision gives them no gap.
+  const size_t first = points_.size(), nodes = fem.nodes();
+  for (auto* a : {&points_.x, &points_.v, &points_.n}) a->resize(first + nodes);
+  points_.phi.resize(first + nodes);
+  points_.point_mass.resize(first + nodes);
+  // The deformed normals turn with F^-T, which the explicit forces above
+  // kept for the elements that turn them.
+#pragma omp parallel for schedule(static) if (nodes > 2048)
+  for (int64_t i = 0; i < int64_t(nodes); ++i) {
+    const size_t q = first + size_t(i);
+    points_.x[q] = fem.x[size_t(i)].cast<float>();
+    points_.v[q] = fem.v[size_t(i)].cast<float>();
+    points_.n[q] = e.normalAfterForces(size_t(i)).cast<float>();
+    points_.phi[q] = e.phi0[size_t(i)];
+    points_.point_mass[q] = float(fem.mass[size_t(i)]);
+  }
+}
+
+double Solver::wallFriction() const {
+  const BoundaryDesc& wall = world_.scene.domain.boundary;
+  return wall.type == BoundaryType::Sticky ? 1e30 : wall.friction;
+}
+
+FemContacts Solver::elasticContacts(const ElasticSolid& e, double dt) {
+  const FemBody& fem = e.fem;
+  FemContacts c;
+  c.walls = true;
+  c.lo = contact_.lo;
+  c.hi = contact_.hi;
+  c.wall_friction = wallFriction();
+  // Rigid bodies: a node headed inside one meets the plane of its surface
+  // there (the envelope of the samples' planes, its normal blended where
+  // they nearly tie), moved on by the body's velocity over the step.
+  contact_bodies_.clear();
+  contact_surface_.clear();
+  for (size_t k = 0; k < world_.bodies.size(); ++k) {
+    const RigidBody& b = world_.bodies[k];
+    const Mat3d R = b.rotation();
+    const double mu = std::sqrt(double(e.friction) * double(b.friction));
+    for (size_t i = 0; i < fem.nodes(); ++i) {
+      const Vec3d y = fem.x[i] + dt * fem.v[i];
+      if ((y - b.state.x).squaredNorm() > double(b.radius) * b.radius) continue;
+      double phi;
+      Vec3d n;
+      const int q = b.envelopeAt(y, R, phi, n);
+      if (q < 0) continue;
+      NodePlane& pl = c.planes.emplace_back();
+      pl.node = int(i);
+      pl.n = n;
+      const Vec3d surface = y - phi * n;
+      // A deforming collider's surface moves as its sample does.
+      pl.velocity = b.deform ? b.sampleVelocity(size_t(q), R) : b.velocityAt(surface);
+      // A node already inside stays no deeper, rather than being thrown out
+      // with the velocity of its whole penetration (which would add energy):
+      // moveElastic moves it out, position only.
+      const double depth = std::max(0.0, pl.n.dot(surface - fem.x[i]));
+      pl.b = pl.n.dot(surface + dt * pl.velocity) - depth;
+      pl.friction = mu;
+      contact_bodies_.emplace_back(c.planes.size() - 1, k);
+      contact_surface_.push_back(surface - depth * pl.n);
+    }
+  }
+  return c;
+}
+
+void Solver::constrainElastic(ElasticSolid& e, size_t first, double dt) {
+  FemBody& fem = e.fem;
+  const int64_t nodes = int64_t(fem.nodes());
+  // Each node on its own (in parallel: a solid of a few thousand nodes took
+  // a serial stretch long enough for the other threads to fall asleep):
+  // what the grid gave it (step 8), then the walls. A node may close at
+  // most its gap to a wall in this step (as rigid samples do); the normal
+  // velocity it loses bounds its friction.
+  const double mu = wallFriction();
+#pragma omp parallel for schedule(static) if (nodes > 2048)
+  for (int64_t i = 0; i < nodes; ++i) {
+    Vec3d& v = fem.v[size_t(i)];
+    v += points_.dv[first + size_t(i)].cast<double>();
+    for (int d = 0; d < 3; ++d)
+      for (int side = 0; side < 2; ++side) {
+        const double sign = side == 0 ? 1.0 : -1.0;  // inward normal along axis d
+        const double gap =
+            side == 0 ? fem.x[size_t(i)][d] - contact_.lo[d] : contact_.hi[d] - fem.x[size_t(i)][d];
+        const double vn = sign * v[d];
+        const double limit = -std::max(0.0, gap) / dt;
+        if (vn >= limit) continue;
+        v[d] += sign * (limit - vn);
+        Vec3d vt = v;
+        vt[d] = 0.0;
+        const double speed = vt.norm();
+        if (speed > 0.0) {
+          const double keep = std::max(0.0, speed - mu * (limit - vn)) / speed;
+          for (int a = 0; a < 3; ++a)
+            if (a != d) v[a] *= keep;
+        }
+      }
+  }
+  // Rigid bodies: a node that would end the step inside one (against the
+  // body's surface moved on by its velocity) meets it in an inelastic
+  // collision that ends it on the surface, the impulse shared by the
+  // node's and the body's inverse masses at the node (the body's turning
+  // included), its sliding reduced by Coulomb friction (the pair's
+  // geometric mean) within what the push bounds. (Implicit solids met them
+  // in their solve.) Pushing the node against the body's pose alone, the
+  // body taking its whole change, threw a body lighter than the nodes under
+  // it off them, and against a body lifting off the nodes that followed it
+  // pushed it on: a ball dropped on a jelly bounced higher than it fell.
+  // The nodes inside are found in parallel, then pushed in node order, each
+  // against the body's velocity that the nodes before it left.
+  for (size_t k = 0; k < world_.bodies.size() && !e.implicit; ++k) {
+    RigidBody& b = world_.bodies[k];
+    const Mat3d R = b.rotation();
+    const double mu_pair = std::sqrt(double(e.friction) * double(b.friction));
+    // The depth from the envelope of the samples' planes round x, which
+    // answers in the cells just outside the samples too: the nearest
+    // sample's plane alone answers only in cells that hold a sample, and a
+    // node came into such a cell up to a cell deep, to be thrown out.
+    auto depthAt = [&](const Vec3d& x, Vec3d& n, Vec3d& vb) {
+      double phi;
+      const int q = b.envelopeAt(x, R, phi, n);
+      if (q < 0) return 0.0;
+      vb = b.placed ? b.sampleVelocity(size_t(q), R) : b.velocityAt(x);
+      return dt * vb.dot(n) - phi;
+    };
+    std::vector<uint32_t> inside;
+#pragma omp parallel if (nodes > 2048)
+    {
+      std::vector<uint32_t> mine;
+#pragma omp for schedule(static) nowait
+      for (int64_t i = 0; i < nodes; ++i) {
+        Vec3d n, vb;
+        if (depthAt(fem.x[size_t(i)] + dt * fem.v[size_t(i)], n, vb) > 0.0)
+          mine.push_back(uint32_t(i));
+      }
+#pragma omp critical
+      inside.insert(inside.end(), mine.begin(), mine.end());
+    }
+    std::sort(inside.begin(), inside.end());
+    for (const uint32_t i : inside) {
+      const Vec3d x = fem.x[i] + dt * fem.v[i];
+      Vec3d n, vb;
+      const double depth = depthAt(x, n, vb);
+      if (depth <= 0.0) continue;  // the nodes before it moved the body away
+      // The inverse mass that an impulse along d at x meets.
+      const double inv_node = fem.pinned[i] ? 0.0 : 1.0 / fem.mass[i];
+      const Vec3d arm = x - b.state.x;
+      auto inverseMass = [&](const Vec3d& d) {
+        const Vec3d a = arm.cross(d);
+        return inv_node + (b.fixed ? 0.0 : 1.0 / b.mass + a.dot(b.applyInverseInertia(a)));
+      };
+      const double inv_n = inverseMass(n);
+      if (inv_n <= 0.0) continue;  // a pinned node on a fixed body
+      const double jn = depth / dt / inv_n;
+      Vec3d j = jn * n;  // onto the node
+      const Vec3d u = fem.v[i] - vb;
+      const Vec3d ut = u - u.dot(n) * n;
+      const double slide = ut.norm();
+      if (slide > 0.0) {
+        const Vec3d t = ut / slide;
+        j -= std::min(mu_pair * jn, slide / inverseMass(t)) * t;
+      }
+      fem.v[i] += inv_node * j;
+      b.applyImpulse(-j, x);
+      addLoad(k, -j, x);
+    }
+  }
+}
+
+void Solver::moveElastic(ElasticSolid& e, double dt) {
+  FemBody& fem = e.fem;
+  const int64_t nodes = int64_t(fem.nodes());
+  int64_t bad = nodes;  // the first node that became non-finite
+#pragma omp parallel for schedule(static) reduction(min : bad) if (nodes > 2048)
+  for (int64_t i = 0; i < nodes; ++i) {
+    fem.x[size_t(i)] += dt * fem.v[size_t(i)];
+    if (!std::isfinite(fem.x[size_t(i)].sum() + fem.v[size_t(i)].sum())) bad = std::min(bad, i);
+  }
+  if (bad < nodes) {
+    std::ostringstream msg;
+    msg << "step " << world_.steps + 1 << " at t = " << world_.time << " s: elastic object '"
+        << e.name << "' became non-finite at node " << bad;
+    throw SimulationError(msg.str());
+  }
+  // Implicit solids: what penetration the contact penalty left (a small
+  // fraction) and what a moving body made after the solve is removed by
+  // moving the node, not by giving it velocity.
+  if (!e.implicit) return;
+  for (const RigidBody& b : world_.bodies) {
+    const Mat3d R = b.rotation();
+    for (size_t i = 0; i < fem.nodes(); ++i) {
+      double phi;
+      Vec3d n;
+      if (b.distanceAt(fem.x[i], R, phi, n) && phi < 0.0) fem.x[i] -= phi * n;
+    }
+  }
+}
+
+}  // namespace triad
