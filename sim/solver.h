@@ -162,6 +162,9 @@ class Solver {
   // An elastic solid's velocities before the grid: its forces over the
   // step, explicit or solved implicitly against walls and rigid bodies.
   void predictElastic(ElasticSolid& e, double dt, const Vec3d& g);
+  // An implicit solid's solve against the walls and the rigid bodies it
+  // touches, the moving ones taking the contacts' reaction.
+  void solveAgainstBodies(ElasticSolid& e, double dt, const Vec3d& g, FemContacts& contacts);
   void scatterSolids();
   void collideSolids();
   void advanceSolids(double dt);
@@ -213,7 +216,11 @@ class Solver {
   std::vector<Vec3d> fem_force_;
   std::vector<std::pair<size_t, size_t>> contact_bodies_;  // (plane, rigid body) of elasticContacts
   std::vector<Vec3d> contact_surface_;                     // per such plane, the surface point
-  static constexpr int kContactPasses = 3;        // implicit solves per step against moving bodies
+  // Implicit solves per step against moving bodies, at most, and the
+  // residual at which a body and the solid agree, as a part of the change
+  // the contacts made to the body's velocity.
+  static constexpr int kMaxContactPasses = 8;
+  static constexpr double kContactAgreement = 0.01;
   static constexpr double kMaxElementCfl = 0.5;  // explicit FEM step, fraction of h / c
   bool binned_ = false;  // the layout holds a binning of this run's particles
   bool shrunk_ = false;  // particles moved out of bodies in the last step

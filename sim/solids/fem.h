@@ -139,6 +139,11 @@ struct FemBody {
     int newton = 0, cg_iterations = 0, direct = 0;
   };
   SolveStats lastSolve() const;
+  // The mass that a push along unit n at node i meets over the last
+  // implicit step's dt, were its neighbours held: m_i + dt^2 n.H_ii n, H
+  // the elements' stiffness there. An upper bound on what a push there
+  // moves (free neighbours give way); the node's mass before any solve.
+  double heldMassAlong(size_t i, const Vec3d& n, double dt) const;
 
   // Built on the first implicit step; shared by copies (same mesh).
   mutable std::shared_ptr<ImplicitCache> implicit_cache_;

@@ -178,6 +178,15 @@ FemBody::SolveStats FemBody::lastSolve() const {
   return implicit_cache_ ? implicit_cache_->stats : SolveStats{};
 }
 
+double FemBody::heldMassAlong(size_t i, const Vec3d& n, double dt) const {
+  const ImplicitCache* c = implicit_cache_.get();
+  if (!c || c->elements.empty()) return mass[i];
+  Mat3d H;
+  for (int r = 0; r < 3; ++r)
+    for (int s = 0; s < 3; ++s) H(r, s) = c->elements[size_t(c->diag_index[9 * i + 3 * r + s])];
+  return mass[i] + dt * dt * n.dot(H * n);
+}
+
 double FemBody::incrementalPotential(const std::vector<Vec3d>& y,
                                      const std::vector<Vec3d>& target, double dt,
                                      const FemContacts* contacts) const {
