@@ -146,11 +146,13 @@ TEST(RigidBody, SlidingStopsAtTheCoulombDistance) {
   const double free_slab = slideDistance(true, 0.0);
   std::printf("sliding 1 m/s at mu 0.3: floor %.4f m, slab %.4f m (v^2/(2 mu g) %.4f); "
               "frictionless slab %.4f m in 0.6 s\n", floor, slab, expected, free_slab);
-  // Measured: 0.1694 (-0.3%), 0.1827 (+7.5%), 0.6000. Before the pair
-  // contacts required facing normals, the box on the slab spun up to 2.5
-  // rad/s, even frictionless (1.7 rad/s), and slid 0.284 m.
+  // Measured: 0.1694 (-0.3%), 0.1694, 0.6000. Before the pair contacts
+  // required facing normals, the box on the slab spun up to 2.5 rad/s, even
+  // frictionless (1.7 rad/s), and slid 0.284 m; before the slab's distance
+  // answered just outside it (the envelope of its sample planes), the box
+  // rode into it and slid 0.1827 m (+7.5%).
   EXPECT_NEAR(floor, expected, 0.02 * expected);
-  EXPECT_NEAR(slab, expected, 0.1 * expected);
+  EXPECT_NEAR(slab, expected, 0.02 * expected);
   EXPECT_NEAR(free_slab, 0.6, 0.01 * 0.6);
 }
 
@@ -199,6 +201,43 @@ TEST(RigidBody, BodiesDoNotPassThroughEachOther) {
   EXPECT_NEAR(a.state.v.x(), v_common, 0.05 * 3);
   EXPECT_NEAR(b.state.v.x(), v_common, 0.05 * 3);
 }
+
+// A ball (radius 4 cm, samples at dx/2 = 1 cm) dropped 5 mm onto a fixed
+// slab comes to rest on its top, wherever it lies against the lattices:
+// the ball's lowest samples sit up to 9 mm above its bottom, and they must
+// meet the slab before they reach it. The slab's distance was asked only
+// in cells holding one of its samples, inside it, so the ball sank until
+// those samples did: 9.2, 8.2 and 5.5 mm into the slab (0.27-0.46 dx) at
+// the three placements here. Through the envelope of the slab's sample
+// planes, which answers in the cells just outside it too: 0.4, 1.3 and
+// 0.2 mm.
+class BallOnSlab : public ::testing::TestWithParam<std::array<double, 2>> {};
+
+TEST_P(BallOnSlab, RestsOnTheTopNotInIt) {
+  const auto [across, up] = GetParam();
+  const double dx = 0.02, r = 0.04, top = 0.08;
+  json j = test::baseScene("ball_on_slab", {0.4, 0.4, 0.4}, dx);
+  json slab = rigid("slab", box({0.06, 0, 0.06}, {0.34, top, 0.34}), 2500);
+  slab["fixed"] = true;
+  j["objects"].push_back(slab);
+  const double start = top + 0.005 + up + r;
+  j["objects"].push_back(rigid("ball", sphere({0.2 + across, start, 0.2 + across}, r), 1000));
+  World w = test::loadWorld(test::tempDir("ball_on_slab"), j);
+  const RigidBody& ball = w.bodies[1];
+  Solver solver(w);
+  solver.advanceTo(1.0);
+  const double bottom = ball.state.x.y() - r;
+  std::printf("ball placed %.4f m across, %.4f m up: its bottom rests %+.2f mm from the top\n",
+              across, up, 1e3 * (bottom - top));
+  EXPECT_NEAR(bottom, top, 0.1 * dx);
+  EXPECT_LT(ball.state.v.norm(), 0.01);
+  EXPECT_LT(std::hypot(ball.state.x.x() - 0.2 - across, ball.state.x.z() - 0.2 - across), 0.001);
+}
+
+INSTANTIATE_TEST_SUITE_P(Placements, BallOnSlab,
+                         ::testing::Values(std::array<double, 2>{0.0, 0.0},
+                                           std::array<double, 2>{0.005, 0.0025},
+                                           std::array<double, 2>{0.0025, 0.0025}));
 
 // The push-out skips particles outside a body's lattice box: the box must
 // hold every point where the body's distance answers (turned and moved as

@@ -28,6 +28,10 @@ SolverBody solverBody(const RigidBody& b) {
   return s;
 }
 
+// A body more than this many times another's size (bounding radius) is
+// the flatter of the two where they touch.
+constexpr float kFlatter = 2.0f;
+
 // Surface samples: within a sample spacing of the surface. Walls and other
 // bodies meet these first.
 inline bool onSurface(const RigidBody& b, size_t q) { return b.phi[q] > -b.spacing; }
@@ -79,7 +83,9 @@ void pairContacts(const std::vector<RigidBody>& bodies, int ia, int ib,
     // surface to push towards).
     double phi_b;
     Vec3d nb, vb;
-    if (!b.surfaceAt(p, Rb, phi_b, nb, vb)) continue;
+    const int qb = b.envelopeAt(p, Rb, phi_b, nb);
+    if (qb < 0) continue;
+    vb = b.placed ? b.sampleVelocity(size_t(qb), Rb) : b.velocityAt(p);
     // A contact pushes a's surface out through b's: their normals face each
     // other. Inside b near one of its edges the distance field points out
     // through the side face, across a's surface (a slab's top samples under
@@ -111,8 +117,13 @@ std::vector<Contact> findContacts(const std::vector<RigidBody>& bodies, const Co
                            (a.state.v - b.state.v).norm() * dt +
                            (a.omega().norm() * a.radius + b.omega().norm() * b.radius) * dt;
       if ((a.state.x - b.state.x).norm() > reach) continue;
-      pairContacts(bodies, int(i), int(j), out);
-      pairContacts(bodies, int(j), int(i), out);
+      // Each body's surface samples against the other's distance, the
+      // contact's normal from the other, except that a body more than
+      // twice the other's size is taken as the flatter surface: its
+      // samples under a ball took the ball's normal, tilted by the few
+      // samples in the contact patch, and the ball rolled off a table.
+      if (a.radius <= kFlatter * b.radius) pairContacts(bodies, int(i), int(j), out);
+      if (b.radius <= kFlatter * a.radius) pairContacts(bodies, int(j), int(i), out);
     }
   return out;
 }
