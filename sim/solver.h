@@ -221,6 +221,8 @@ class Solver {
   // the contacts made to the body's velocity.
   static constexpr int kMaxContactPasses = 8;
   static constexpr double kContactAgreement = 0.01;
+  // Most Gauss-Seidel sweeps over an explicit solid's nodes pushed by a rigid body.
+  static constexpr int kMaxElasticContactSweeps = 20;
   static constexpr double kMaxElementCfl = 0.5;  // explicit FEM step, fraction of h / c
   bool binned_ = false;  // the layout holds a binning of this run's particles
   bool shrunk_ = false;  // particles moved out of bodies in the last step

@@ -262,8 +262,13 @@ void Solver::constrainElastic(ElasticSolid& e, size_t first, double dt) {
   // body taking its whole change, threw a body lighter than the nodes under
   // it off them, and against a body lifting off the nodes that followed it
   // pushed it on: a ball dropped on a jelly bounced higher than it fell.
-  // The nodes inside are found in parallel, then pushed in node order, each
-  // against the body's velocity that the nodes before it left.
+  // The nodes inside are found in parallel. Their pushes are then solved
+  // together by projected Gauss-Seidel on accumulated impulses (normal ones
+  // never pulling, friction within the Coulomb disc), sweeping the nodes
+  // forwards and backwards until the pushes settle. One pass in node order,
+  // each node against the body's velocity the ones before it left, let the
+  // first nodes under a light body take all its approach: a 5 g cube
+  // dropped flat on a jelly slab left with 0.1 m/s sideways and tilted 8°.
   for (size_t k = 0; k < world_.bodies.size() && !e.implicit; ++k) {
     RigidBody& b = world_.bodies[k];
     const Mat3d R = b.rotation();
@@ -293,33 +298,66 @@ void Solver::constrainElastic(ElasticSolid& e, size_t first, double dt) {
       inside.insert(inside.end(), mine.begin(), mine.end());
     }
     std::sort(inside.begin(), inside.end());
+    // Each push's plane, depth and velocities where it was found: the depth
+    // changes with them linearly while the same plane holds.
+    struct Push {
+      uint32_t node;
+      Vec3d x, n, v0, vb0;
+      double depth0, inv_node;
+      double jn = 0.0;
+      Vec3d jt = Vec3d::Zero();
+    };
+    std::vector<Push> pushes;
+    double fastest = 0.0;  // the largest approach to remove, m/s
     for (const uint32_t i : inside) {
-      const Vec3d x = fem.x[i] + dt * fem.v[i];
-      Vec3d n, vb;
-      const double depth = depthAt(x, n, vb);
-      if (depth <= 0.0) continue;  // the nodes before it moved the body away
-      // The inverse mass that an impulse along d at x meets.
-      const double inv_node = fem.pinned[i] ? 0.0 : 1.0 / fem.mass[i];
-      const Vec3d arm = x - b.state.x;
-      auto inverseMass = [&](const Vec3d& d) {
-        const Vec3d a = arm.cross(d);
-        return inv_node + (b.fixed ? 0.0 : 1.0 / b.mass + a.dot(b.applyInverseInertia(a)));
-      };
-      const double inv_n = inverseMass(n);
-      if (inv_n <= 0.0) continue;  // a pinned node on a fixed body
-      const double jn = depth / dt / inv_n;
-      Vec3d j = jn * n;  // onto the node
-      const Vec3d u = fem.v[i] - vb;
-      const Vec3d ut = u - u.dot(n) * n;
-      const double slide = ut.norm();
-      if (slide > 0.0) {
-        const Vec3d t = ut / slide;
-        j -= std::min(mu_pair * jn, slide / inverseMass(t)) * t;
-      }
-      fem.v[i] += inv_node * j;
-      b.applyImpulse(-j, x);
-      addLoad(k, -j, x);
+      Push p;
+      p.node = i;
+      p.x = fem.x[i] + dt * fem.v[i];
+      p.depth0 = depthAt(p.x, p.n, p.vb0);
+      p.v0 = fem.v[i];
+      p.inv_node = fem.pinned[i] ? 0.0 : 1.0 / fem.mass[i];
+      if (p.depth0 <= 0.0) continue;
+      fastest = std::max(fastest, p.depth0 / dt);
+      pushes.push_back(p);
     }
+    // The inverse mass that an impulse along d at p's point meets.
+    auto inverseMass = [&](const Push& p, const Vec3d& d) {
+      const Vec3d a = (p.x - b.state.x).cross(d);
+      return p.inv_node + (b.fixed ? 0.0 : 1.0 / b.mass + a.dot(b.applyInverseInertia(a)));
+    };
+    auto bodyVelocity = [&](const Push& p) { return b.placed ? p.vb0 : b.velocityAt(p.x); };
+    auto apply = [&](const Push& p, const Vec3d& j) {  // j onto the node
+      fem.v[p.node] += p.inv_node * j;
+      b.applyImpulse(-j, p.x);
+    };
+    for (int sweep = 0; sweep < kMaxElasticContactSweeps && !pushes.empty(); ++sweep) {
+      double change = 0.0;
+      for (size_t m = 0; m < pushes.size(); ++m) {
+        Push& p = pushes[sweep % 2 == 0 ? m : pushes.size() - 1 - m];
+        const double inv_n = inverseMass(p, p.n);
+        if (inv_n <= 0.0) continue;  // a pinned node on a fixed body
+        // Normal: end the step on the surface, never pulling.
+        const Vec3d& v = fem.v[p.node];
+        const double depth = p.depth0 - dt * p.n.dot((v - p.v0) - (bodyVelocity(p) - p.vb0));
+        const double jn = std::max(0.0, p.jn + depth / dt / inv_n);
+        apply(p, (jn - p.jn) * p.n);
+        change = std::max(change, std::abs(jn - p.jn) * inv_n);
+        p.jn = jn;
+        // Friction: stop the sliding, within mu times the normal push.
+        const Vec3d u = fem.v[p.node] - bodyVelocity(p);
+        const Vec3d ut = u - u.dot(p.n) * p.n;
+        const double slide = ut.norm();
+        if (slide <= 0.0) continue;
+        const Vec3d t = ut / slide;
+        Vec3d jt = p.jt - (slide / inverseMass(p, t)) * t;
+        if (jt.norm() > mu_pair * p.jn) jt *= mu_pair * p.jn / jt.norm();
+        apply(p, jt - p.jt);
+        change = std::max(change, (jt - p.jt).norm() * inverseMass(p, t));
+        p.jt = jt;
+      }
+      if (change <= 1e-3 * fastest) break;
+    }
+    for (const Push& p : pushes) addLoad(k, -(p.jn * p.n + p.jt), p.x);
   }
 }
 
