@@ -125,6 +125,23 @@ TEST(ImplicitContact, RigidBallRestsOnImplicitCube) {
   EXPECT_GT(e.hi.y(), 0.14);
 }
 
+// A jelly slab (E 1e5 Pa, density 1000, friction 0.5, explicit) between lo
+// and hi, in a 0.4 m box at dx 0.02: the first object.
+json jellySlabScene(const std::string& name, const std::array<double, 3>& lo,
+                    const std::array<double, 3>& hi) {
+  json j = test::baseScene(name, {0.4, 0.4, 0.4}, 0.02);
+  j["materials"]["jelly"] = {{"model", "fixed_corotated"},
+                             {"density", 1000},
+                             {"youngs_modulus", 1e5},
+                             {"poisson_ratio", 0.3}};
+  j["objects"].push_back({{"name", "slab"},
+                          {"kind", "elastic"},
+                          {"material", "jelly"},
+                          {"friction", 0.5},
+                          {"shape", box(lo, hi)}});
+  return j;
+}
+
 // A rigid ball (radius 4 cm) dropped 5 mm onto an explicit jelly slab
 // (E 1e5 Pa, 8 cm thick, undamped) on the floor, one as dense as the jelly
 // and one a hundredth of it: neither may rise above where it was dropped
@@ -162,18 +179,9 @@ TEST_P(BallOnJelly, BouncesNoHigherThanItFell) {
   const double density = c.ball_density, r = 0.04;
   const std::string name =
       "ball_on_jelly_" + std::to_string(int(density)) + (c.implicit ? "_implicit" : "_explicit");
-  json j = test::baseScene(name, {0.4, 0.4, 0.4}, 0.02);
-  j["materials"]["jelly"] = {{"model", "fixed_corotated"},
-                             {"density", 1000},
-                             {"youngs_modulus", 1e5},
-                             {"poisson_ratio", 0.3}};
-  j["objects"].push_back({{"name", "slab"},
-                          {"kind", "elastic"},
-                          {"material", "jelly"},
-                          {"friction", 0.5},
-                          {"integrator", c.implicit ? "implicit" : "explicit"},
-                          {"sample_spacing", c.sample_spacing},
-                          {"shape", box({0.1, 0, 0.1}, {0.3, 0.08, 0.3})}});
+  json j = jellySlabScene(name, {0.1, 0, 0.1}, {0.3, 0.08, 0.3});
+  j["objects"][0]["integrator"] = c.implicit ? "implicit" : "explicit";
+  j["objects"][0]["sample_spacing"] = c.sample_spacing;
   World w = test::loadWorld(test::tempDir(name), j);
   const double top = extent(w.elastics[0].fem).hi.y(), start = top + r + 0.005;
   j["objects"].push_back({{"name", "ball"},
@@ -222,16 +230,7 @@ INSTANTIATE_TEST_SUITE_P(Cases, BallOnJelly,
 // the steps: stepped straight to 0.04 s, the old pushes happened to land
 // it level, 3 mm/s and 0.3 rad/s.)
 TEST(ElasticContact, LightCubeLandsFlatOnAJelly) {
-  json j = test::baseScene("cube_on_jelly", {0.4, 0.4, 0.4}, 0.02);
-  j["materials"]["jelly"] = {{"model", "fixed_corotated"},
-                             {"density", 1000},
-                             {"youngs_modulus", 1e5},
-                             {"poisson_ratio", 0.3}};
-  j["objects"].push_back({{"name", "slab"},
-                          {"kind", "elastic"},
-                          {"material", "jelly"},
-                          {"friction", 0.5},
-                          {"shape", box({0.06, 0, 0.06}, {0.34, 0.08, 0.34})}});
+  json j = jellySlabScene("cube_on_jelly", {0.06, 0, 0.06}, {0.34, 0.08, 0.34});
   j["objects"].push_back({{"name", "cube"},
                           {"kind", "rigid"},
                           {"density", 10},
