@@ -206,7 +206,7 @@ FemContacts Solver::elasticContacts(const ElasticSolid& e, double dt) {
       pl.n = n;
       const Vec3d surface = y - phi * n;
       // A deforming collider's surface moves as its sample does.
-      pl.velocity = b.deform ? b.sampleVelocity(size_t(q), R) : b.velocityAt(surface);
+      pl.velocity = b.surfaceVelocity(q, surface, R);
       // A node already inside stays no deeper, rather than being thrown out
       // with the velocity of its whole penetration (which would add energy):
       // moveElastic moves it out, position only.
@@ -281,7 +281,7 @@ void Solver::constrainElastic(ElasticSolid& e, size_t first, double dt) {
       double phi;
       const int q = b.envelopeAt(x, R, phi, n);
       if (q < 0) return 0.0;
-      vb = b.placed ? b.sampleVelocity(size_t(q), R) : b.velocityAt(x);
+      vb = b.surfaceVelocity(q, x, R);
       return dt * vb.dot(n) - phi;
     };
     std::vector<uint32_t> inside;
@@ -303,9 +303,15 @@ void Solver::constrainElastic(ElasticSolid& e, size_t first, double dt) {
     struct Push {
       uint32_t node;
       Vec3d x, n, v0, vb0;
-      double depth0, inv_node;
+      double depth0, inv_node, inv_n = 0.0;  // inv_n: along n, node and body
       double jn = 0.0;
       Vec3d jt = Vec3d::Zero();
+    };
+    // The inverse mass that an impulse along d at p's point meets (the
+    // body's inertia stays as it is while the pushes are solved).
+    auto inverseMass = [&](const Push& p, const Vec3d& d) {
+      const Vec3d a = (p.x - b.state.x).cross(d);
+      return p.inv_node + (b.fixed ? 0.0 : 1.0 / b.mass + a.dot(b.applyInverseInertia(a)));
     };
     std::vector<Push> pushes;
     double fastest = 0.0;  // the largest approach to remove, m/s
@@ -316,15 +322,11 @@ void Solver::constrainElastic(ElasticSolid& e, size_t first, double dt) {
       p.depth0 = depthAt(p.x, p.n, p.vb0);
       p.v0 = fem.v[i];
       p.inv_node = fem.pinned[i] ? 0.0 : 1.0 / fem.mass[i];
+      p.inv_n = inverseMass(p, p.n);
       if (p.depth0 <= 0.0) continue;
       fastest = std::max(fastest, p.depth0 / dt);
-      pushes.push_back(p);
+      if (p.inv_n > 0.0) pushes.push_back(p);  // not a pinned node on a fixed body
     }
-    // The inverse mass that an impulse along d at p's point meets.
-    auto inverseMass = [&](const Push& p, const Vec3d& d) {
-      const Vec3d a = (p.x - b.state.x).cross(d);
-      return p.inv_node + (b.fixed ? 0.0 : 1.0 / b.mass + a.dot(b.applyInverseInertia(a)));
-    };
     auto bodyVelocity = [&](const Push& p) { return b.placed ? p.vb0 : b.velocityAt(p.x); };
     auto apply = [&](const Push& p, const Vec3d& j) {  // j onto the node
       fem.v[p.node] += p.inv_node * j;
@@ -334,14 +336,12 @@ void Solver::constrainElastic(ElasticSolid& e, size_t first, double dt) {
       double change = 0.0;
       for (size_t m = 0; m < pushes.size(); ++m) {
         Push& p = pushes[sweep % 2 == 0 ? m : pushes.size() - 1 - m];
-        const double inv_n = inverseMass(p, p.n);
-        if (inv_n <= 0.0) continue;  // a pinned node on a fixed body
         // Normal: end the step on the surface, never pulling.
         const Vec3d& v = fem.v[p.node];
         const double depth = p.depth0 - dt * p.n.dot((v - p.v0) - (bodyVelocity(p) - p.vb0));
-        const double jn = std::max(0.0, p.jn + depth / dt / inv_n);
+        const double jn = std::max(0.0, p.jn + depth / dt / p.inv_n);
         apply(p, (jn - p.jn) * p.n);
-        change = std::max(change, std::abs(jn - p.jn) * inv_n);
+        change = std::max(change, std::abs(jn - p.jn) * p.inv_n);
         p.jn = jn;
         // Friction: stop the sliding, within mu times the normal push.
         const Vec3d u = fem.v[p.node] - bodyVelocity(p);

@@ -145,6 +145,12 @@ struct RigidBody {
   Vec3d samplePosition(size_t q, const Mat3d& R) const;
   Vec3d sampleNormal(size_t q, const Mat3d& R) const;
   Vec3d sampleVelocity(size_t q, const Mat3d& R) const;
+  // The surface's velocity at world point p, whose envelope sample is q
+  // (from supportAt or envelopeAt): the body's motion at p, or a deforming
+  // collider's sample's own velocity.
+  Vec3d surfaceVelocity(int q, const Vec3d& p, const Mat3d& R) const {
+    return placed ? sampleVelocity(size_t(q), R) : velocityAt(p);
+  }
   // distanceAt's distance and normal from the envelope sample (supportAt),
   // and the surface's velocity there: the body's motion at p, or a
   // deforming collider's sample's own velocity.

@@ -79,13 +79,13 @@ void pairContacts(const std::vector<RigidBody>& bodies, int ia, int ib,
     if (!onSurface(a, q)) continue;
     const Vec3d p = a.samplePosition(q, Ra);
     if (a.placed && (p - b.state.x).squaredNorm() > double(rb2)) continue;
-    // b's distance field there; none outside b, or deep inside (no nearby
-    // surface to push towards).
+    // b's distance there, from the envelope of its sample planes: it
+    // answers just outside b too, and not far from b's samples.
     double phi_b;
-    Vec3d nb, vb;
+    Vec3d nb;
     const int qb = b.envelopeAt(p, Rb, phi_b, nb);
     if (qb < 0) continue;
-    vb = b.placed ? b.sampleVelocity(size_t(qb), Rb) : b.velocityAt(p);
+    const Vec3d vb = b.surfaceVelocity(qb, p, Rb);
     // A contact pushes a's surface out through b's: their normals face each
     // other. Inside b near one of its edges the distance field points out
     // through the side face, across a's surface (a slab's top samples under
