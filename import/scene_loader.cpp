@@ -41,6 +41,8 @@ const ParamDict::Choices<ElasticIntegrator> kIntegrators = {
     {"explicit", ElasticIntegrator::Explicit}, {"implicit", ElasticIntegrator::Implicit}};
 const ParamDict::Choices<RigidNodeMass> kNodeMasses = {{"body_share", RigidNodeMass::BodyShare},
                                                         {"node", RigidNodeMass::Node}};
+const ParamDict::Choices<RigidNodeVelocity> kNodeVelocities = {
+    {"body", RigidNodeVelocity::Body}, {"samples", RigidNodeVelocity::Samples}};
 const ParamDict::Choices<ContactNormal> kContactNormals = {{"samples", ContactNormal::Samples},
                                                            {"distance", ContactNormal::Distance}};
 const ParamDict::Choices<RigidCollision> kRigidCollisions = {{"jacobi", RigidCollision::Jacobi},
@@ -192,6 +194,8 @@ SolverDesc parseSolver(const ParamDict& root) {
   out.contact_velocity = s->getEnum("contact_velocity", out.contact_velocity, kContactVelocities);
   out.solid_readback = s->getEnum("solid_readback", out.solid_readback, kReadbacks);
   out.rigid_node_mass = s->getEnum("rigid_node_mass", out.rigid_node_mass, kNodeMasses);
+  out.rigid_node_velocity =
+      s->getEnum("rigid_node_velocity", out.rigid_node_velocity, kNodeVelocities);
   out.coupling_iterations =
       s->getInt("coupling_iterations", out.coupling_iterations, Range::closed(1, 1000));
   out.contact_iterations =
@@ -644,6 +648,7 @@ nlohmann::ordered_json solverSettings(const SolverDesc& s) {
   j["contact_velocity"] = nameOf(kContactVelocities, s.contact_velocity);
   j["solid_readback"] = nameOf(kReadbacks, s.solid_readback);
   j["rigid_node_mass"] = nameOf(kNodeMasses, s.rigid_node_mass);
+  j["rigid_node_velocity"] = nameOf(kNodeVelocities, s.rigid_node_velocity);
   j["coupling_iterations"] = s.coupling_iterations;
   j["contact_iterations"] = s.contact_iterations;
   if (s.sleep.enabled)

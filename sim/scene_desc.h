@@ -23,6 +23,7 @@ enum class SolidReadback { MomentumConserving, Combined };
 // The solid mass in a collision's reduced mass at a rigid body's node: the
 // body's mass shared over its nodes in contact, or the node's own (literal).
 enum class RigidNodeMass { BodyShare, Node };
+enum class RigidNodeVelocity { Body, Samples };
 // Three grids: a node's contact normal, from the samples' summed normals
 // (the contract's step 4) or from the body's own signed distance.
 enum class ContactNormal { Samples, Distance };
@@ -74,6 +75,7 @@ struct SolverDesc {
   ContactVelocity contact_velocity = ContactVelocity::AfterUpdate;
   SolidReadback solid_readback = SolidReadback::MomentumConserving;
   RigidNodeMass rigid_node_mass = RigidNodeMass::Node;
+  RigidNodeVelocity rigid_node_velocity = RigidNodeVelocity::Body;
   // Three grids: how far outside a rigid body's surface, in cells, a node
   // still takes part in the contact (its signed distance, extrapolated from
   // the samples). 1.5 takes every node the samples' stencils reach.

@@ -405,6 +405,8 @@ void Solver::predictSolids(double dt) {
       const Mat3d R = b.rotation();
       points_.centre[id] = b.state.x.cast<float>();
       points_.inv_mass[id] = float(1.0 / b.mass);
+      points_.velocity[id] = b.state.v.cast<float>();
+      points_.spin[id] = b.omega().cast<float>();
       points_.inv_inertia[id] =
           (R * b.moments.cwiseInverse().asDiagonal() * R.transpose()).cast<float>();
     }

@@ -8,6 +8,7 @@
 // solver.front_fields, in a wider tank, it reaches the surface and floats.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <tuple>
@@ -332,6 +333,42 @@ TEST(SubmergedSlab, RisesAndFloatsWithFrontFields) {
   // one field), then floating at its draft.
   EXPECT_LT(draft1 - archimedes, 0.5 * (draft0 - archimedes));
   EXPECT_LT(std::abs(error), 0.25);
+}
+
+// A frictionless ball of half water's density dropped onto calm water
+// (0.1 m across, 5 cells) bobs and floats; no force normal to its surface
+// has a moment about its centre, so once it floats it must not turn. With
+// the solid velocity at its nodes taken from its samples' mean there
+// (solver.rigid_node_velocity samples, the contract's step 1) a turning ball
+// met the water where its surface moved along the nodes' normals, and the
+// impulses spun it on: 4.4 rad/s over 1.5-3 s here (bench/RESULTS.md, "A
+// floating ball spun"). The landing still turns it a little (up to about
+// 0.7 rad/s in the first half second): the nodes' normals are off the
+// ball's radius by a few degrees.
+TEST(FloatingBall, DoesNotSpin) {
+  json j = test::baseScene("float_ball", {0.4, 0.4, 0.4}, kDx);
+  j["materials"]["water"] = {{"model", "water"}, {"density", 1000}, {"bulk_modulus", 2e5}};
+  j["objects"].push_back({{"name", "water"},
+                          {"kind", "mpm"},
+                          {"material", "water"},
+                          {"shape", box({0, 0, 0}, {0.4, kDepth, 0.4})}});
+  j["objects"].push_back(
+      {{"name", "ball"},
+       {"kind", "rigid"},
+       {"density", 500},
+       {"friction", 0.0},
+       {"shape", {{"sphere", {{"center", {0.2, 0.253, 0.2}}, {"radius", 0.05}}}}}});
+  World w = test::loadWorld(test::tempDir("float_ball"), j);
+  Solver solver(w);
+  double spin = 0.0;
+  for (int k = 1; k <= 60; ++k) {
+    solver.advanceTo(0.05 * k);
+    if (k > 30) spin = std::max(spin, w.bodies[0].omega().norm());
+  }
+  std::printf("largest spin over 1.5-3 s: %.3f rad/s\n", spin);
+  EXPECT_LT(spin, 0.3);
+  // It floats: its centre between its draft's (0.205 m) and a cell above.
+  EXPECT_NEAR(w.bodies[0].state.x.y(), 0.205 + 0.5 * kDx, 0.5 * kDx + 0.005);
 }
 
 }  // namespace

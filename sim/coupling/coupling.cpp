@@ -165,6 +165,8 @@ void SolidPoints::clear() {
   centre.clear();
   inv_mass.clear();
   inv_inertia.clear();
+  velocity.clear();
+  spin.clear();
 }
 
 size_t SolidPoints::addSolid(float uniform_mass, float mu, SolidKind how, double whole_mass) {
@@ -173,6 +175,8 @@ size_t SolidPoints::addSolid(float uniform_mass, float mu, SolidKind how, double
   centre.push_back(Vec3f::Zero());
   inv_mass.push_back(0.0f);
   inv_inertia.push_back(Mat3f::Zero());
+  velocity.push_back(Vec3f::Zero());
+  spin.push_back(Vec3f::Zero());
   mass.push_back(uniform_mass);
   friction.push_back(mu);
   kind.push_back(how);
@@ -498,6 +502,8 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
                           ? std::numeric_limits<float>::infinity()
                           : float(solver_.contact_reach) * p.dx;
   const bool by_distance = !single && solver_.contact_normal == ContactNormal::Distance;
+  const bool body_velocity =
+      !single && !combined && solver_.rigid_node_velocity == RigidNodeVelocity::Body;
   auto inContact = [&](const SolidNode& sn, const GridNode& g) {
     return sn.m > 0.0f && g.m > 0.0f && (sn.phi <= reach || sn.owner < 0);
   };
@@ -597,6 +603,16 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
                          Vec3i(k >> (2 * kBlockBits), (k >> kBlockBits) & (kBlockSize - 1),
                                k & (kBlockSize - 1));
       c.x = node0 + p.dx * node.cast<float>();
+      // A moving rigid body's node (rigid_node_velocity body): the body's
+      // own velocity at the node, where its impulse acts, not its samples'
+      // mean there (their mean position lies inside, off the line from the
+      // centre to the node). With the two apart, a turning ball met the
+      // water at nodes where its surface moved along the normal, and the
+      // impulses there spun it on: a frictionless ball floating in calm
+      // water turned at 3 rad/s.
+      if (body_velocity && c.solid >= 0)
+        c.v_vol = pts.velocity[size_t(c.solid)] +
+                  pts.spin[size_t(c.solid)].cross(c.x - pts.centre[size_t(c.solid)]);
     }
   }
   if (domain_) shareAcrossProcesses();

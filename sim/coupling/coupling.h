@@ -45,6 +45,8 @@ struct SolidPoints {
   std::vector<Vec3f> centre;
   std::vector<float> inv_mass;
   std::vector<Mat3f> inv_inertia;
+  std::vector<Vec3f> velocity;  // v and omega as predicted, for the body's
+  std::vector<Vec3f> spin;      // velocity at each of its nodes
 
   size_t size() const { return x.size(); }
   size_t solids() const { return mass.size(); }
