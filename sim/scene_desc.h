@@ -23,6 +23,8 @@ enum class SolidReadback { MomentumConserving, Combined };
 // The solid mass in a collision's reduced mass at a rigid body's node: the
 // body's mass shared over its nodes in contact, or the node's own (literal).
 enum class RigidNodeMass { BodyShare, Node };
+// Three grids: the solid velocity a collision compares at a moving rigid
+// body's node, the body's own there or its samples' mean (the contract's).
 enum class RigidNodeVelocity { Body, Samples };
 // Three grids: a node's contact normal, from the samples' summed normals
 // (the contract's step 4) or from the body's own signed distance.
