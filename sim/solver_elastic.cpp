@@ -321,9 +321,9 @@ void Solver::constrainElastic(ElasticSolid& e, size_t first, double dt) {
       p.x = fem.x[i] + dt * fem.v[i];
       p.depth0 = depthAt(p.x, p.n, p.vb0);
       p.v0 = fem.v[i];
+      if (p.depth0 <= 0.0) continue;
       p.inv_node = fem.pinned[i] ? 0.0 : 1.0 / fem.mass[i];
       p.inv_n = inverseMass(p, p.n);
-      if (p.depth0 <= 0.0) continue;
       fastest = std::max(fastest, p.depth0 / dt);
       if (p.inv_n > 0.0) pushes.push_back(p);  // not a pinned node on a fixed body
     }
