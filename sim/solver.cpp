@@ -62,6 +62,7 @@ Solver::Solver(World& world) : world_(world), params_(transferParamsFor(world.sc
     contact_.wall_type = domain.boundary.type;
     contact_.wall_friction = domain.boundary.friction;
     contact_.iterations = scene.solver.contact_iterations;
+    contact_.gravity = Vec3d(scene.gravity[0], scene.gravity[1], scene.gravity[2]).norm();
   }
   resetLoads();
 }

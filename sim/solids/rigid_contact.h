@@ -21,6 +21,10 @@ struct ContactSettings {
   // an open contact closes exactly (speculative contacts), so fast bodies
   // never pass a wall.
   double push_out = 0.5;
+  // |g|, m/s^2: the position correction's passes stop once one changes no
+  // contact's pseudo-velocity by more than 1e-4 of what gravity adds in the
+  // step (0: all passes).
+  double gravity = 0.0;
 };
 
 struct ContactStats {
