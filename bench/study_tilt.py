@@ -33,6 +33,9 @@ ap.add_argument("--height", type=float, default=0.2)
 ap.add_argument("--dx", type=float, default=0.02)
 ap.add_argument("--time", type=float, default=2.5)
 ap.add_argument("--fixed", action="store_true")
+ap.add_argument("--depth", type=float, default=None,
+                help="the centre this far below the water level (m) instead of where the "
+                     "body displaces its weight")
 ap.add_argument("--quasi2d", action="store_true",
                 help="domain 4 cells thick in z, the prism spanning it wall to wall")
 ap.add_argument("--solver", default="{}", help="solver keys to add, as JSON")
@@ -85,6 +88,8 @@ for _ in range(60):
         lo = yc
     else:
         hi = yc
+if a.depth is not None:
+    yc = H - a.depth
 poly = section(yc)
 sub, xb = area_centroid(below(poly, H))
 buoyancy = 1000 * 9.81 * sub * L

@@ -1,5 +1,6 @@
 #include "sim/world.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -68,10 +69,68 @@ void closeWallFaces(const ShapeDesc& shape, const DomainDesc& domain, CollisionS
   }
 }
 
+// A body that spans the domain wall to wall along an axis can never leave
+// either wall, so its faces there are no surface either, whatever its shape
+// and whether or not it moves: material cannot reach them. Left as faces,
+// they gave the samples within a few cells of the walls (all of them in a
+// quasi-2D tank a few cells thick) normals along the wall, and the water's
+// pressure at those nodes went into the walls: a 5-cell log spanning such
+// a tank, held under water, felt 62% of its buoyancy (101% as a fixed box,
+// whose faces were closed). Each sample whose normal lies along the wall's
+// takes its distance and normal, measured across the axis, from the nearest
+// surface point of the other faces: those of the boundary samples of its
+// layer nearer to another face than to either wall, or of the nearest layer
+// that has such samples (the layers next to a wall have none: their rim
+// samples lie as near to the wall as to the side). Exact for a prism along
+// the axis.
+void closeSpannedWalls(const DomainDesc& domain, CollisionSamples& s) {
+  const double h = s.spacing, tol = 1e-3 * h;
+  for (int d = 0; d < 3; ++d) {
+    if (s.size() == 0) return;
+    float lo = std::numeric_limits<float>::max(), hi = -lo;
+    for (const Vec3f& x : s.x) lo = std::min(lo, x[d]), hi = std::max(hi, x[d]);
+    if (lo - 0.5 * h > domain.min[d] + tol || hi + 0.5 * h < domain.max[d] - tol) continue;
+    // Layers along d, by lattice index, and each one's surface points.
+    std::map<long, std::vector<size_t>> layers;
+    for (size_t q = 0; q < s.size(); ++q)
+      layers[std::lround((double(s.x[q][d]) - domain.min[d]) / h - 0.5)].push_back(q);
+    std::map<long, std::vector<std::pair<Vec3f, Vec3f>>> surface;  // point, normal
+    for (const auto& [layer, members] : layers)
+      for (const size_t q : members) {
+        const double wall =
+            std::min(double(s.x[q][d]) - domain.min[d], domain.max[d] - double(s.x[q][d]));
+        if (s.phi[q] > -float(h) && std::abs(s.normal[q][d]) < 0.5f && wall > -s.phi[q] + tol)
+          surface[layer].push_back({s.x[q] - s.phi[q] * s.normal[q], s.normal[q]});
+      }
+    if (surface.empty()) continue;
+    for (const auto& [layer, members] : layers) {
+      // This layer's points, or the nearest layer's.
+      auto it = surface.lower_bound(layer);
+      if (it == surface.end() || (it != surface.begin() && it->first != layer &&
+                                  layer - std::prev(it)->first < it->first - layer))
+        it = it == surface.begin() ? it : std::prev(it);
+      const auto& points = it->second;
+      for (const size_t q : members) {
+        if (std::abs(s.normal[q][d]) < 0.5f) continue;
+        float best = std::numeric_limits<float>::max();
+        size_t k = 0;
+        for (size_t p = 0; p < points.size(); ++p) {
+          Vec3f r = s.x[q] - points[p].first;
+          r[d] = 0.0f;
+          if (r.squaredNorm() < best) best = r.squaredNorm(), k = p;
+        }
+        s.phi[q] = -std::sqrt(best);
+        s.normal[q] = points[k].second;
+      }
+    }
+  }
+}
+
 RigidBody buildRigidBody(const SceneDesc& scene, size_t i, const SolidSampler& sampler) {
   const ObjectDesc& obj = scene.objects[i];
   SolidSamples s = sampleSolid(scene, i, sampler, obj.density);
   if (obj.fixed) closeWallFaces(obj.shape, scene.domain, s.samples);
+  closeSpannedWalls(scene.domain, s.samples);
   return makeRigidBody(int(i), obj.name, s.samples, std::move(s.surface), obj.fixed, obj.friction,
                        toVec(obj.velocity), toVec(obj.angular_velocity), scene.domain.dx);
 }
