@@ -155,7 +155,10 @@ RigidBody buildCollider(const SceneDesc& scene, size_t i, const SolidSampler& sa
   const ShapeDesc first = frames ? ShapeDesc(frames->first) : obj.shape;
   SolidSamples s = sampleSolid(scene, i, sampler, 1000.0, &first);
   const bool animated = obj.animation.has_value() || frames.has_value();
-  if (!animated) closeWallFaces(obj.shape, scene.domain, s.samples);
+  if (!animated) {
+    closeWallFaces(obj.shape, scene.domain, s.samples);
+    closeSpannedWalls(scene.domain, s.samples);
+  }
   const Vec3d pivot = volumeCentroid(s.surface);
   RigidBody b = makeRigidBody(int(i), obj.name, s.samples, std::move(s.surface), true,
                               obj.friction, Vec3d::Zero(), Vec3d::Zero(), scene.domain.dx);

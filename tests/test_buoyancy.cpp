@@ -475,19 +475,30 @@ std::vector<double> logTilts(const std::string& name, double w, double h, double
 // Measured 7.80 N. Its faces on the walls used to count as surface: the
 // samples near the walls took normals along them and the force read 4.86
 // N (62%); a fixed box, whose wall faces were closed, read 7.94 N.
+// The same log as a collider (kind collider, not animated) reads the same.
 TEST(FloatingLog, SpanningTheTankItFeelsItsBuoyancy) {
-  const std::filesystem::path dir = test::tempDir("log_submerged");
-  World w = test::loadWorld(dir, logScene(dir, 0.1, 0.1, 0.0, 0.15, true, 1.5));
-  Solver solver(w);
-  solver.advanceTo(0.75);
-  solver.resetLoads();
-  solver.advanceTo(1.5);
-  const Vec3d f = solver.bodyLoads()[0].force();
-  const double buoyancy = 1000 * 9.81 * 0.1 * 0.1 * 4 * kDx;
-  std::printf("fixed log under water: force %.3f %.3f %.3f N, rho g V %.3f N\n", f.x(), f.y(),
-              f.z(), buoyancy);
-  EXPECT_NEAR(f.y(), buoyancy, 0.05 * buoyancy);
-  EXPECT_NEAR(f.x(), 0.0, 0.02 * buoyancy);
+  for (const bool collider : {false, true}) {
+    const std::filesystem::path dir =
+        test::tempDir(collider ? "log_submerged_collider" : "log_submerged");
+    json j = logScene(dir, 0.1, 0.1, 0.0, 0.15, true, 1.5);
+    if (collider) {
+      json& log = j["objects"].back();
+      log["kind"] = "collider";
+      log.erase("density");
+      log.erase("fixed");
+    }
+    World w = test::loadWorld(dir, j);
+    Solver solver(w);
+    solver.advanceTo(0.75);
+    solver.resetLoads();
+    solver.advanceTo(1.5);
+    const Vec3d f = solver.bodyLoads()[0].force();
+    const double buoyancy = 1000 * 9.81 * 0.1 * 0.1 * 4 * kDx;
+    std::printf("fixed log under water (%s): force %.3f %.3f %.3f N, rho g V %.3f N\n",
+                collider ? "collider" : "rigid", f.x(), f.y(), f.z(), buoyancy);
+    EXPECT_NEAR(f.y(), buoyancy, 0.05 * buoyancy) << (collider ? "collider" : "rigid");
+    EXPECT_NEAR(f.x(), 0.0, 0.02 * buoyancy);
+  }
 }
 
 // A square log floats flat only below 0.211 or above 0.789 of water's
