@@ -23,7 +23,6 @@ import json
 import math
 import os
 import subprocess
-import sys
 
 ap = argparse.ArgumentParser()
 ap.add_argument("--ratio", type=float, default=0.5)
@@ -169,8 +168,9 @@ if a.fixed:
     half = rows[len(rows) // 2:]
     fy = sum(float(r["fy"]) for r in half) / len(half)
     tz = sum(float(r["tz"]) for r in half) / len(half)
+    share = f" ({tz / moment:.1%})" if abs(moment) > 1e-6 else f" (hydrostatics: {moment:+.4f})"
     print(f"mean over the second half: fy {fy:.3f} N ({fy / buoyancy:.1%} of hydrostatics), "
-          f"tz {tz:+.4f} N m ({tz / moment:.1%})" if moment else f"fy {fy:.3f}, tz {tz:+.4f}")
+          f"tz {tz:+.4f} N m{share}")
 else:
     rows = [r for r in csv.DictReader(open(os.path.join(cache, "bodies", "rigid_states.csv")))]
     line = []
@@ -178,4 +178,3 @@ else:
         roll = a.tilt + math.degrees(2 * math.atan2(float(r["qz"]), float(r["qw"])))
         line.append(f"{float(r['time']):.2f}s {roll:.1f}")
     print("tilt (deg): " + ", ".join(line))
-sys.exit(0)

@@ -84,9 +84,9 @@ void closeWallFaces(const ShapeDesc& shape, const DomainDesc& domain, CollisionS
 // samples lie as near to the wall as to the side). Exact for a prism along
 // the axis.
 void closeSpannedWalls(const DomainDesc& domain, CollisionSamples& s) {
+  if (s.size() == 0) return;
   const double h = s.spacing, tol = 1e-3 * h;
   for (int d = 0; d < 3; ++d) {
-    if (s.size() == 0) return;
     float lo = std::numeric_limits<float>::max(), hi = -lo;
     for (const Vec3f& x : s.x) lo = std::min(lo, x[d]), hi = std::max(hi, x[d]);
     if (lo - 0.5 * h > domain.min[d] + tol || hi + 0.5 * h < domain.max[d] - tol) continue;
@@ -104,11 +104,11 @@ void closeSpannedWalls(const DomainDesc& domain, CollisionSamples& s) {
       }
     if (surface.empty()) continue;
     for (const auto& [layer, members] : layers) {
-      // This layer's points, or the nearest layer's.
+      // This layer's points, or the nearest layer's (surface is not empty).
       auto it = surface.lower_bound(layer);
-      if (it == surface.end() || (it != surface.begin() && it->first != layer &&
+      if (it == surface.end() || (it->first != layer && it != surface.begin() &&
                                   layer - std::prev(it)->first < it->first - layer))
-        it = it == surface.begin() ? it : std::prev(it);
+        --it;
       const auto& points = it->second;
       for (const size_t q : members) {
         if (std::abs(s.normal[q][d]) < 0.5f) continue;
