@@ -82,14 +82,16 @@ void closeWallFaces(const ShapeDesc& shape, const DomainDesc& domain, CollisionS
 // layer nearer to another face than to either wall, or of the nearest layer
 // that has such samples (the layers next to a wall have none: their rim
 // samples lie as near to the wall as to the side). Exact for a prism along
-// the axis.
-void closeSpannedWalls(const DomainDesc& domain, CollisionSamples& s) {
-  if (s.size() == 0) return;
+// the axis. Returns the axes it closed.
+SpannedWalls closeSpannedWalls(const DomainDesc& domain, CollisionSamples& s) {
+  SpannedWalls walls{{false, false, false}, toVec(domain.min), toVec(domain.max)};
+  if (s.size() == 0) return walls;
   const double h = s.spacing, tol = 1e-3 * h;
   for (int d = 0; d < 3; ++d) {
     float lo = std::numeric_limits<float>::max(), hi = -lo;
     for (const Vec3f& x : s.x) lo = std::min(lo, x[d]), hi = std::max(hi, x[d]);
     if (lo - 0.5 * h > domain.min[d] + tol || hi + 0.5 * h < domain.max[d] - tol) continue;
+    walls.axis[size_t(d)] = true;
     // Layers along d, by lattice index, and each one's surface points.
     std::map<long, std::vector<size_t>> layers;
     for (size_t q = 0; q < s.size(); ++q)
@@ -124,6 +126,7 @@ void closeSpannedWalls(const DomainDesc& domain, CollisionSamples& s) {
       }
     }
   }
+  return walls;
 }
 
 RigidBody buildRigidBody(const SceneDesc& scene, size_t i, const SolidSampler& sampler) {
@@ -190,9 +193,12 @@ ElasticSolid buildElasticSolid(const SceneDesc& scene, size_t i, const SolidSamp
   const ObjectDesc& obj = scene.objects[i];
   const MaterialDesc& m = scene.materials[size_t(obj.material)];
   SolidSamples s = sampleSolid(scene, i, sampler, m.density);
+  // A solid spanning the domain cannot leave the walls either: no surface
+  // there, as for rigid bodies.
+  const SpannedWalls walls = closeSpannedWalls(scene.domain, s.samples);
   try {
     ElasticSolid e = makeElasticSolid(int(i), obj.name, s.samples, std::move(s.surface), m,
-                                      obj.friction, toVec(obj.velocity));
+                                      obj.friction, toVec(obj.velocity), walls);
     e.implicit = obj.integrator == ElasticIntegrator::Implicit;
     e.fem.damping = obj.damping;
     return e;

@@ -49,7 +49,7 @@ TriSurface ElasticSolid::worldSurface() const {
 
 ElasticSolid makeElasticSolid(int object, const std::string& name, const CollisionSamples& samples,
                               TriSurface surface, const MaterialDesc& material, double friction,
-                              const Vec3d& velocity) {
+                              const Vec3d& velocity, const SpannedWalls& walls) {
   ElasticSolid e;
   e.object = object;
   e.name = name;
@@ -87,10 +87,26 @@ ElasticSolid makeElasticSolid(int object, const std::string& name, const Collisi
       cells[i]++;
       sum[i] += samples.phi[t / 6];
     }
+  for (const Vec3d& c : m.cells) e.cell_keys.insert(packBlock(e.cellIndex(c)));
+  // A node whose only missing cells lie beyond walls the solid spans is
+  // inside it too: its distance is the mean of the cells it has.
+  auto inside = [&](size_t i) {
+    if (cells[i] == 8) return true;
+    if (cells[i] == 0) return false;
+    const double h = m.spacing;
+    for (int k = 0; k < 8; ++k) {
+      const Vec3d c = m.nodes[i] + 0.5 * h * Vec3d(k & 1 ? 1 : -1, k & 2 ? 1 : -1, k & 4 ? 1 : -1);
+      if (e.hasCell(e.cellIndex(c))) continue;
+      bool beyond = false;
+      for (int d = 0; d < 3; ++d)
+        beyond = beyond || (walls.axis[size_t(d)] && (c[d] < walls.min[d] || c[d] > walls.max[d]));
+      if (!beyond) return false;
+    }
+    return true;
+  };
   e.phi0.assign(m.nodes.size(), 0.0f);
   for (size_t i = 0; i < m.nodes.size(); ++i)
-    if (cells[i] == 8) e.phi0[i] = float(std::min(0.0, sum[i] / 8.0));
-  for (const Vec3d& c : m.cells) e.cell_keys.insert(packBlock(e.cellIndex(c)));
+    if (inside(i)) e.phi0[i] = float(std::min(0.0, sum[i] / cells[i]));
   // A corner's lattice index is that of the cell whose lowest corner it is.
   for (size_t i = 0; i < m.nodes.size(); ++i)
     e.node_keys[packBlock(e.cellIndex(m.nodes[i] + Vec3d::Constant(0.5 * m.spacing)))] = int(i);

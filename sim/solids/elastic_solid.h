@@ -2,6 +2,7 @@
 // Volumetric elastic solids (issue 5): a voxel tetrahedral mesh whose nodes
 // are the solid's collision particles (coupling.md), finite-element forces,
 // and the imported surface embedded in the mesh for caches and previews.
+#include <array>
 #include <cstdint>
 #include <string>
 #include <unordered_map>
@@ -53,10 +54,17 @@ struct ElasticSolid {
   Vec3d turned(size_t i, const Mat3d& inv_t) const;  // F^-T N of node i, normalised
 };
 
+// The domain walls a solid spans from one to the other, along each axis
+// (sim/world.cpp): its faces there are no surface.
+struct SpannedWalls {
+  std::array<bool, 3> axis{false, false, false};
+  Vec3d min = Vec3d::Zero(), max = Vec3d::Zero();  // the domain's box
+};
+
 // Builds the solid from its collision samples (cells of side h centred on
-// them), with an initial velocity.
+// them), with an initial velocity. Nodes on spanned walls lie inside it.
 ElasticSolid makeElasticSolid(int object, const std::string& name, const CollisionSamples& samples,
                               TriSurface surface, const MaterialDesc& material, double friction,
-                              const Vec3d& velocity);
+                              const Vec3d& velocity, const SpannedWalls& walls = {});
 
 }  // namespace triad
