@@ -15,6 +15,9 @@ its own weight, so that only the moment is out of balance.
 Free: prints the tilt every 0.25 s (degrees, from the body's quaternion).
 Fixed: prints the mean force and torque over the second half of the run
 against rho g V and the hydrostatic moment about the body's centre.
+--glide V (m/s): the body is an animated collider moving along x at V
+from rest (its animation keeps it spanning a quasi-2D tank); prints the
+mean forces as --fixed does, fx among them (the water's drag).
 Runs `build/app/triad` at one thread; the scene and cache go to --out.
 """
 import argparse
@@ -37,6 +40,8 @@ ap.add_argument("--depth", type=float, default=None,
                      "body displaces its weight")
 ap.add_argument("--quasi2d", action="store_true",
                 help="domain 4 cells thick in z, the prism spanning it wall to wall")
+ap.add_argument("--glide", type=float, default=None,
+                help="an animated collider moving along x at this speed (m/s) instead")
 ap.add_argument("--solver", default="{}", help="solver keys to add, as JSON")
 ap.add_argument("--out", default="/tmp/study_tilt")
 ap.add_argument("--triad", default=os.path.join(os.path.dirname(__file__), "..", "build", "app",
@@ -141,6 +146,11 @@ body = {"name": "prism", "kind": "rigid", "density": 1000 * s,
         "shape": {"mesh": {"path": mesh, "translate": [xc, yc, zc], "rotate_deg": [0, 0, a.tilt]}}}
 if a.fixed:
     body["fixed"] = True
+if a.glide is not None:
+    del body["density"]
+    body["kind"] = "collider"
+    body["animation"] = {"keys": [{"time": 0, "translate": [0, 0, 0]},
+                                  {"time": a.time, "translate": [a.glide * a.time, 0, 0]}]}
 solver = {"cfl": 0.4, "max_dt": 0.002, "particles_per_cell": 8}
 solver.update(json.loads(a.solver))
 frames = int(round(a.time * 24))
@@ -163,14 +173,15 @@ env = dict(os.environ, OMP_WAIT_POLICY="passive")
 cache = os.path.join(a.out, "cache")
 subprocess.run([a.triad, "run", path, "--threads", "1", "--no-probe", "--quiet", "--out", cache],
                check=True, env=env)
-if a.fixed:
+if a.fixed or a.glide is not None:
     rows = list(csv.DictReader(open(os.path.join(cache, "bodies", "forces.csv"))))
     half = rows[len(rows) // 2:]
+    fx = sum(float(r["fx"]) for r in half) / len(half)
     fy = sum(float(r["fy"]) for r in half) / len(half)
     tz = sum(float(r["tz"]) for r in half) / len(half)
     share = f" ({tz / moment:.1%})" if abs(moment) > 1e-6 else f" (hydrostatics: {moment:+.4f})"
-    print(f"mean over the second half: fy {fy:.3f} N ({fy / buoyancy:.1%} of hydrostatics), "
-          f"tz {tz:+.4f} N m{share}")
+    print(f"mean over the second half: fx {fx:+.3f} N, fy {fy:.3f} N ({fy / buoyancy:.1%} of "
+          f"hydrostatics), tz {tz:+.4f} N m{share}")
 else:
     rows = [r for r in csv.DictReader(open(os.path.join(cache, "bodies", "rigid_states.csv")))]
     line = []

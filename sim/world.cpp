@@ -1,6 +1,7 @@
 #include "sim/world.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -82,12 +83,15 @@ void closeWallFaces(const ShapeDesc& shape, const DomainDesc& domain, CollisionS
 // layer nearer to another face than to either wall, or of the nearest layer
 // that has such samples (the layers next to a wall have none: their rim
 // samples lie as near to the wall as to the side). Exact for a prism along
-// the axis. Returns the axes it closed.
-SpannedWalls closeSpannedWalls(const DomainDesc& domain, CollisionSamples& s) {
+// the axis. Only the axes in `axes` are looked at. Returns the axes it
+// closed.
+SpannedWalls closeSpannedWalls(const DomainDesc& domain, CollisionSamples& s,
+                               const std::array<bool, 3>& axes = {true, true, true}) {
   SpannedWalls walls{{false, false, false}, toVec(domain.min), toVec(domain.max)};
   if (s.size() == 0) return walls;
   const double h = s.spacing, tol = 1e-3 * h;
   for (int d = 0; d < 3; ++d) {
+    if (!axes[size_t(d)]) continue;
     float lo = std::numeric_limits<float>::max(), hi = -lo;
     for (const Vec3f& x : s.x) lo = std::min(lo, x[d]), hi = std::max(hi, x[d]);
     if (lo - 0.5 * h > domain.min[d] + tol || hi + 0.5 * h < domain.max[d] - tol) continue;
@@ -138,6 +142,21 @@ RigidBody buildRigidBody(const SceneDesc& scene, size_t i, const SolidSampler& s
                        toVec(obj.velocity), toVec(obj.angular_velocity), scene.domain.dx);
 }
 
+// The axes along which an animation never moves a shape: no key translates
+// along the axis or turns about another axis (the poses between keys turn
+// about the keys' common axis too). A collider spanning the domain along
+// such an axis (a wave maker's paddle in a flume) spans it all the time.
+std::array<bool, 3> axesKept(const AnimationDesc& a) {
+  std::array<bool, 3> kept{true, true, true};
+  for (const AnimationKeyDesc& k : a.keys)
+    for (size_t d = 0; d < 3; ++d) {
+      if (k.translate[d] != 0.0) kept[d] = false;
+      for (size_t e = 0; e < 3; ++e)
+        if (e != d && k.rotate_deg[e] != 0.0) kept[d] = false;
+    }
+  return kept;
+}
+
 // A collider: a body of infinite mass whose reference point is the shape's
 // centroid as written, moved by its animation if it has one (else it is a
 // fixed body, scattered into the grid once).
@@ -161,6 +180,8 @@ RigidBody buildCollider(const SceneDesc& scene, size_t i, const SolidSampler& sa
   if (!animated) {
     closeWallFaces(obj.shape, scene.domain, s.samples);
     closeSpannedWalls(scene.domain, s.samples);
+  } else if (!frames) {
+    closeSpannedWalls(scene.domain, s.samples, axesKept(*obj.animation));
   }
   const Vec3d pivot = volumeCentroid(s.surface);
   RigidBody b = makeRigidBody(int(i), obj.name, s.samples, std::move(s.surface), true,

@@ -475,17 +475,25 @@ std::vector<double> logTilts(const std::string& name, double w, double h, double
 // Measured 7.80 N. Its faces on the walls used to count as surface: the
 // samples near the walls took normals along them and the force read 4.86
 // N (62%); a fixed box, whose wall faces were closed, read 7.94 N.
-// The same log as a collider (kind collider, not animated) reads the same.
+// The same log as a collider (kind collider, not animated) reads the same,
+// and as an animated collider gliding along the tank at 1 cm/s (its
+// animation keeps it spanning the tank) 7.78 N (4.81 N before its faces
+// were closed). The glide also reads a drag of 0.62 N (0.41 N at 0.5
+// cm/s), where the water's real resistance at such speeds is a
+// thousandth of that: the water behind the log lags it (not asserted).
 TEST(FloatingLog, SpanningTheTankItFeelsItsBuoyancy) {
-  for (const bool collider : {false, true}) {
-    const std::filesystem::path dir =
-        test::tempDir(collider ? "log_submerged_collider" : "log_submerged");
+  for (const std::string kind : {"rigid", "collider", "animated collider"}) {
+    const std::filesystem::path dir = test::tempDir("log_submerged_" + std::to_string(kind.size()));
     json j = logScene(dir, 0.1, 0.1, 0.0, 0.15, true, 1.5);
-    if (collider) {
+    if (kind != "rigid") {
       json& log = j["objects"].back();
       log["kind"] = "collider";
       log.erase("density");
       log.erase("fixed");
+      if (kind == "animated collider")
+        log["animation"] = {{"keys",
+                             {{{"time", 0.0}, {"translate", {0, 0, 0}}},
+                              {{"time", 1.5}, {"translate", {0.015, 0, 0}}}}}};
     }
     World w = test::loadWorld(dir, j);
     Solver solver(w);
@@ -495,9 +503,11 @@ TEST(FloatingLog, SpanningTheTankItFeelsItsBuoyancy) {
     const Vec3d f = solver.bodyLoads()[0].force();
     const double buoyancy = 1000 * 9.81 * 0.1 * 0.1 * 4 * kDx;
     std::printf("fixed log under water (%s): force %.3f %.3f %.3f N, rho g V %.3f N\n",
-                collider ? "collider" : "rigid", f.x(), f.y(), f.z(), buoyancy);
-    EXPECT_NEAR(f.y(), buoyancy, 0.05 * buoyancy) << (collider ? "collider" : "rigid");
-    EXPECT_NEAR(f.x(), 0.0, 0.02 * buoyancy);
+                kind.c_str(), f.x(), f.y(), f.z(), buoyancy);
+    EXPECT_NEAR(f.y(), buoyancy, 0.05 * buoyancy) << kind;
+    if (kind != "animated collider") {
+      EXPECT_NEAR(f.x(), 0.0, 0.02 * buoyancy) << kind;
+    }
   }
 }
 
