@@ -40,6 +40,11 @@ ap.add_argument("--depth", type=float, default=None,
                      "body displaces its weight")
 ap.add_argument("--quasi2d", action="store_true",
                 help="domain 4 cells thick in z, the prism spanning it wall to wall")
+ap.add_argument("--sides", type=int, default=4,
+                help="4: a rectangle w x h; more: a regular polygon inscribed in the ellipse "
+                     "w x h (32 for a round log)")
+ap.add_argument("--thickness", type=float, default=None,
+                help="the quasi-2D tank's thickness (m; 4 dx unless given)")
 ap.add_argument("--glide", type=float, default=None,
                 help="an animated collider moving along x at this speed (m/s) instead")
 ap.add_argument("--solver", default="{}", help="solver keys to add, as JSON")
@@ -50,13 +55,22 @@ a = ap.parse_args()
 
 dx, w, h, s = a.dx, a.width, a.height, a.ratio
 W, H = max(0.6, 4 * max(w, h)), 0.3  # tank length, water level
-D, L = (4 * dx, 4 * dx) if a.quasi2d else (0.4, 0.3)
+q2d = a.thickness or 4 * dx
+D, L = (q2d, q2d) if a.quasi2d else (0.4, 0.3)
 xc, zc = W / 2, D / 2
 t = math.radians(a.tilt)
 
 
+if a.sides == 4:
+    outline = [(w / 2, h / 2), (-w / 2, h / 2), (-w / 2, -h / 2), (w / 2, -h / 2)]
+else:
+    outline = [(w / 2 * math.cos(2 * math.pi * k / a.sides), h / 2 * math.sin(2 * math.pi * k / a.sides))
+               for k in range(a.sides)]
+    # The section's area, for the weight: the polygon's, not the ellipse's.
+
+
 def section(yc):
-    corners = [(w / 2, h / 2), (-w / 2, h / 2), (-w / 2, -h / 2), (w / 2, -h / 2)]
+    corners = outline
     return [(xc + x * math.cos(t) - y * math.sin(t), yc + x * math.sin(t) + y * math.cos(t))
             for x, y in corners]
 
@@ -84,11 +98,12 @@ def area_centroid(poly):
     return ar, (cx / ar if ar else xc)
 
 
+area0 = abs(area_centroid(outline)[0])
 # The centre's height at which the body displaces its weight (bisection).
 lo, hi = H - (w + h), H + (w + h)
 for _ in range(60):
     yc = 0.5 * (lo + hi)
-    if area_centroid(below(section(yc), H))[0] > s * w * h:
+    if area_centroid(below(section(yc), H))[0] > s * area0:
         lo = yc
     else:
         hi = yc
@@ -102,8 +117,8 @@ moment = buoyancy * (xb - xc)
 
 def span(x):
     ys = []
-    for i in range(4):
-        (x0, y0), (x1, y1) = poly[i], poly[(i + 1) % 4]
+    for i in range(len(poly)):
+        (x0, y0), (x1, y1) = poly[i], poly[(i + 1) % len(poly)]
         if (x0 - x) * (x1 - x) <= 0 and x0 != x1:
             ys.append(y0 + (y1 - y0) * (x - x0) / (x1 - x0))
     return (min(ys), max(ys)) if ys else None
@@ -112,12 +127,17 @@ def span(x):
 os.makedirs(a.out, exist_ok=True)
 mesh = os.path.abspath(os.path.join(a.out, "prism.obj"))
 with open(mesh, "w") as f:
-    for x in (-w / 2, w / 2):
-        for y in (-h / 2, h / 2):
-            for z in (-L / 2, L / 2):
-                f.write(f"v {x} {y} {z}\n")
-    for q in [(1, 2, 4, 3), (5, 7, 8, 6), (1, 5, 6, 2), (3, 4, 8, 7), (1, 3, 7, 5), (2, 6, 8, 4)]:
-        f.write(f"f {q[0]} {q[1]} {q[2]}\nf {q[0]} {q[2]} {q[3]}\n")
+    # The outline (counter-clockwise) extruded along z: vertex 2k + 1 at
+    # -L/2, 2k + 2 at +L/2; sides, then fans for the two caps.
+    n = len(outline)
+    ccw = outline if area_centroid(outline)[0] > 0 else outline[::-1]
+    for x, y in ccw:
+        f.write(f"v {x} {y} {-L / 2}\nv {x} {y} {L / 2}\n")
+    for k in range(n):
+        a0, a1 = 2 * k + 1, 2 * ((k + 1) % n) + 1
+        f.write(f"f {a0} {a1} {a1 + 1}\nf {a0} {a1 + 1} {a0 + 1}\n")
+    for k in range(1, n - 1):
+        f.write(f"f 1 {2 * (k + 1) + 1} {2 * k + 1}\nf 2 {2 * k + 2} {2 * (k + 1) + 2}\n")
 objects = []
 
 
@@ -164,7 +184,7 @@ scene = {"version": 1, "name": "study_tilt", "frames": {"count": frames, "fps": 
 path = os.path.join(a.out, "scene.json")
 with open(path, "w") as f:
     json.dump(scene, f, indent=1)
-d = s * h  # upright draft
+d = s * h  # upright draft (a rectangle's)
 gm = w * w / (12 * d) - (h - d) / 2  # BM - BG
 print(f"prism {w} x {h} m, ratio {s}, tilt {a.tilt} deg, centre {yc:.4f} m; upright "
       f"metacentric height {gm * 1000:+.1f} mm ({'stable' if gm > 0 else 'unstable'} flat); "
