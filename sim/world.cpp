@@ -226,8 +226,10 @@ ElasticSolid buildElasticSolid(const SceneDesc& scene, size_t i, const SolidSamp
   const ObjectDesc& obj = scene.objects[i];
   const MaterialDesc& m = scene.materials[size_t(obj.material)];
   SolidSamples s = sampleSolid(scene, i, sampler, m.density);
-  // A solid spanning the domain cannot leave the walls either: no surface
-  // there, as for rigid bodies.
+  // A solid spanning the domain keeps to the walls too: no surface there,
+  // as for rigid bodies. (One that shrank across the tank would open a
+  // gap there that material could enter; the walls' pressure on a solid
+  // under water squeezes it against them instead.)
   const SpannedWalls walls = closeSpannedWalls(scene.domain, s.samples);
   try {
     ElasticSolid e = makeElasticSolid(int(i), obj.name, s.samples, std::move(s.surface), m,

@@ -481,6 +481,16 @@ std::vector<double> logTilts(const std::string& name, double w, double h, double
   return tilts;
 }
 
+// The mean force on the first body of a 1.5 s scene over its second half.
+Vec3d meanForceFromHalfTime(const std::filesystem::path& dir, const json& j) {
+  World w = test::loadWorld(dir, j);
+  Solver solver(w);
+  solver.advanceTo(0.75);
+  solver.resetLoads();
+  solver.advanceTo(1.5);
+  return solver.bodyLoads()[0].force();
+}
+
 // The log of logScene 5 cells square, fixed with its centre 0.15 m under
 // water, spanning the quasi-2D tank wall to wall: the water's force is its
 // buoyancy, rho g V (7.85 N), within 5% (the mean over 0.75-1.5 s; the
@@ -508,12 +518,7 @@ TEST(FloatingLog, SpanningTheTankItFeelsItsBuoyancy) {
                              {{{"time", 0.0}, {"translate", {0, 0, 0}}},
                               {{"time", 1.5}, {"translate", {0.015, 0, 0}}}}}};
     }
-    World w = test::loadWorld(dir, j);
-    Solver solver(w);
-    solver.advanceTo(0.75);
-    solver.resetLoads();
-    solver.advanceTo(1.5);
-    const Vec3d f = solver.bodyLoads()[0].force();
+    const Vec3d f = meanForceFromHalfTime(dir, j);
     const double buoyancy = 1000 * 9.81 * 0.1 * 0.1 * 4 * kDx;
     std::printf("fixed log under water (%s): force %.3f %.3f %.3f N, rho g V %.3f N\n",
                 kind.c_str(), f.x(), f.y(), f.z(), buoyancy);
@@ -535,16 +540,11 @@ TEST(FloatingLog, SpanningTheTankItFeelsItsBuoyancy) {
 // spacing off the sample's foot): 5.05 N (82.5%); the distance to the
 // point alone: 5.46 N with 0.13 N sideways. The rest of the shortfall is
 // that of faces oblique to the lattice under water, in 3D too
-// (bench/RESULTS.md, "Oblique faces under water"): the test asserts 86%.
+// (bench/RESULTS.md, "Walls closed for every solid; oblique faces under
+// water; a gliding body's drag"): the test asserts 86%.
 TEST(FloatingLog, RoundLogSpanningTheTankFeelsMostOfItsBuoyancy) {
   const std::filesystem::path dir = test::tempDir("log_round");
-  const json j = logScene(dir, 0.1, 0.1, 0.0, 0.15, true, 1.5, 32);
-  World w = test::loadWorld(dir, j);
-  Solver solver(w);
-  solver.advanceTo(0.75);
-  solver.resetLoads();
-  solver.advanceTo(1.5);
-  const Vec3d f = solver.bodyLoads()[0].force();
+  const Vec3d f = meanForceFromHalfTime(dir, logScene(dir, 0.1, 0.1, 0.0, 0.15, true, 1.5, 32));
   const double area = 0.5 * 32 * 0.05 * 0.05 * std::sin(2 * M_PI / 32);
   const double buoyancy = 1000 * 9.81 * area * 4 * kDx;
   std::printf("round log under water: force %.3f %.3f N, rho g V %.3f N (%.1f%%)\n", f.x(), f.y(),
