@@ -47,6 +47,7 @@ ap.add_argument("--thickness", type=float, default=None,
                 help="the quasi-2D tank's thickness (m; 4 dx unless given)")
 ap.add_argument("--glide", type=float, default=None,
                 help="an animated collider moving along x at this speed (m/s) instead")
+ap.add_argument("--bulk-modulus", type=float, default=2e5, help="the water's (Pa)")
 ap.add_argument("--solver", default="{}", help="solver keys to add, as JSON")
 ap.add_argument("--out", default="/tmp/study_tilt")
 ap.add_argument("--triad", default=os.path.join(os.path.dirname(__file__), "..", "build", "app",
@@ -178,7 +179,7 @@ scene = {"version": 1, "name": "study_tilt", "frames": {"count": frames, "fps": 
          "domain": {"min": [0, 0, 0], "max": [W, H + max(w, h) + 0.1, D], "dx": dx,
                     "boundary": {"type": "slip", "friction": 0}},
          "solver": solver,
-         "materials": {"water": {"model": "water", "density": 1000, "bulk_modulus": 2e5,
+         "materials": {"water": {"model": "water", "density": 1000, "bulk_modulus": a.bulk_modulus,
                                  "viscosity": 0.001}},
          "objects": objects + [body], "output": {"vdb": False, "png": False}}
 path = os.path.join(a.out, "scene.json")
