@@ -150,9 +150,11 @@ def water(name, lo, hi):
 if L < D:
     water("end0", [0, 0, 0], [W, H, zc - L / 2])
     water("end1", [0, 0, zc + L / 2], [W, H, D])
-# Columns one particle spacing wide (8 per cell: dx/2), cut where the
+solver = {"cfl": 0.4, "max_dt": 0.002, "particles_per_cell": 8}
+solver.update(json.loads(a.solver))
+# Columns one particle spacing wide (dx/2 at 8 per cell), cut where the
 # column's middle meets the body: each holds one column of particles.
-step = dx / 2
+step = dx / round(solver["particles_per_cell"] ** (1 / 3))
 for i in range(int(round(W / step))):
     x0, x1 = i * step, (i + 1) * step
     sp = span(0.5 * (x0 + x1))
@@ -172,8 +174,6 @@ if a.glide is not None:
     body["kind"] = "collider"
     body["animation"] = {"keys": [{"time": 0, "translate": [0, 0, 0]},
                                   {"time": a.time, "translate": [a.glide * a.time, 0, 0]}]}
-solver = {"cfl": 0.4, "max_dt": 0.002, "particles_per_cell": 8}
-solver.update(json.loads(a.solver))
 frames = int(round(a.time * 24))
 scene = {"version": 1, "name": "study_tilt", "frames": {"count": frames, "fps": 24},
          "domain": {"min": [0, 0, 0], "max": [W, H + max(w, h) + 0.1, D], "dx": dx,
