@@ -82,9 +82,10 @@ void closeWallFaces(const ShapeDesc& shape, const DomainDesc& domain, CollisionS
 // surface point of the other faces: those of the boundary samples of its
 // layer nearer to another face than to either wall, or of the nearest layer
 // that has such samples (the layers next to a wall have none: their rim
-// samples lie as near to the wall as to the side). Exact for a prism along
-// the axis. Only the axes in `axes` are looked at. Returns the axes it
-// closed.
+// samples lie as near to the wall as to the side). The other samples keep
+// their distance, their normals made to lie across the axis. Exact for a
+// prism along the axis. Only the axes in `axes` are looked at. Returns the
+// axes it closed.
 SpannedWalls closeSpannedWalls(const DomainDesc& domain, CollisionSamples& s,
                                const std::array<bool, 3>& axes = {true, true, true}) {
   SpannedWalls walls{{false, false, false}, toVec(domain.min), toVec(domain.max)};
@@ -151,7 +152,7 @@ SpannedWalls closeSpannedWalls(const DomainDesc& domain, CollisionSamples& s,
         // the sample's foot), and its normal across the axis only (rim
         // samples near the ends lean along it). A round log held under
         // water in a quasi-2D tank felt 82.5% of its buoyancy before, 89%
-        // now.
+        // after (102% once the kept samples above lost their lean too).
         Vec3f n = points[k].second;
         n[d] = 0.0f;
         n = n.norm() > 0.0f ? Vec3f(n.normalized()) : Vec3f(points[k].second);
