@@ -67,13 +67,11 @@ if a.sides == 4:
 else:
     outline = [(w / 2 * math.cos(2 * math.pi * k / a.sides), h / 2 * math.sin(2 * math.pi * k / a.sides))
                for k in range(a.sides)]
-    # The section's area, for the weight: the polygon's, not the ellipse's.
 
 
 def section(yc):
-    corners = outline
     return [(xc + x * math.cos(t) - y * math.sin(t), yc + x * math.sin(t) + y * math.cos(t))
-            for x, y in corners]
+            for x, y in outline]
 
 
 def below(poly, level):
@@ -99,7 +97,7 @@ def area_centroid(poly):
     return ar, (cx / ar if ar else xc)
 
 
-area0 = abs(area_centroid(outline)[0])
+area0 = abs(area_centroid(outline)[0])  # for the weight: the polygon's, not the ellipse's
 # The centre's height at which the body displaces its weight (bisection).
 lo, hi = H - (w + h), H + (w + h)
 for _ in range(60):
@@ -185,11 +183,14 @@ scene = {"version": 1, "name": "study_tilt", "frames": {"count": frames, "fps": 
 path = os.path.join(a.out, "scene.json")
 with open(path, "w") as f:
     json.dump(scene, f, indent=1)
-d = s * h  # upright draft (a rectangle's)
-gm = w * w / (12 * d) - (h - d) / 2  # BM - BG
-print(f"prism {w} x {h} m, ratio {s}, tilt {a.tilt} deg, centre {yc:.4f} m; upright "
-      f"metacentric height {gm * 1000:+.1f} mm ({'stable' if gm > 0 else 'unstable'} flat); "
-      f"hydrostatic force {buoyancy:.3f} N, moment {moment:+.4f} N m")
+stability = ""
+if a.sides == 4:
+    d = s * h  # upright draft
+    gm = w * w / (12 * d) - (h - d) / 2  # BM - BG
+    stability = (f"upright metacentric height {gm * 1000:+.1f} mm "
+                 f"({'stable' if gm > 0 else 'unstable'} flat); ")
+print(f"prism {w} x {h} m, {a.sides} sides, ratio {s}, tilt {a.tilt} deg, centre {yc:.4f} m; "
+      f"{stability}hydrostatic force {buoyancy:.3f} N, moment {moment:+.4f} N m")
 env = dict(os.environ, OMP_WAIT_POLICY="passive")
 cache = os.path.join(a.out, "cache")
 subprocess.run([a.triad, "run", path, "--threads", "1", "--no-probe", "--quiet", "--out", cache],

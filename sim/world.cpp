@@ -97,6 +97,9 @@ SpannedWalls closeSpannedWalls(const DomainDesc& domain, CollisionSamples& s,
     for (const Vec3f& x : s.x) lo = std::min(lo, x[d]), hi = std::max(hi, x[d]);
     if (lo - 0.5 * h > domain.min[d] + tol || hi + 0.5 * h < domain.max[d] - tol) continue;
     walls.axis[size_t(d)] = true;
+    auto wallDistance = [&](size_t q) {
+      return std::min(double(s.x[q][d]) - domain.min[d], domain.max[d] - double(s.x[q][d]));
+    };
     // Layers along d, by lattice index, and each one's surface points.
     std::map<long, std::vector<size_t>> layers;
     for (size_t q = 0; q < s.size(); ++q)
@@ -104,9 +107,8 @@ SpannedWalls closeSpannedWalls(const DomainDesc& domain, CollisionSamples& s,
     std::map<long, std::vector<std::pair<Vec3f, Vec3f>>> surface;  // point, normal
     for (const auto& [layer, members] : layers)
       for (const size_t q : members) {
-        const double wall =
-            std::min(double(s.x[q][d]) - domain.min[d], domain.max[d] - double(s.x[q][d]));
-        if (s.phi[q] > -float(h) && std::abs(s.normal[q][d]) < 0.5f && wall > -s.phi[q] + tol)
+        if (s.phi[q] > -float(h) && std::abs(s.normal[q][d]) < 0.5f &&
+            wallDistance(q) > -s.phi[q] + tol)
           surface[layer].push_back({s.x[q] - s.phi[q] * s.normal[q], s.normal[q]});
       }
     if (surface.empty()) continue;
@@ -129,12 +131,10 @@ SpannedWalls closeSpannedWalls(const DomainDesc& domain, CollisionSamples& s,
           // tank, lost half its buoyancy in 4 s). One as near to the wall
           // as to a side took its distance from the edge between them:
           // across the axis the side is |n across| of it away.
-          const double wall =
-              std::min(double(s.x[q][d]) - domain.min[d], domain.max[d] - double(s.x[q][d]));
           Vec3f n = s.normal[q];
           n[d] = 0.0f;
           if (n.norm() > 0.0f) {
-            if (wall <= -s.phi[q] + tol) s.phi[q] *= n.norm();
+            if (wallDistance(q) <= -s.phi[q] + tol) s.phi[q] *= n.norm();
             s.normal[q] = n.normalized();
           }
           continue;
