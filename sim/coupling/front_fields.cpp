@@ -72,7 +72,7 @@ void GridCoupling::correctFront(std::vector<ParticleSet>& sets, const GridLayout
   }
   if (any == 0) return;
   Vec3f dv = Vec3f::Zero();
-  Mat3f dB = Mat3f::Zero();
+  Mat3f dB = Mat3f::Zero(), dB_front = Mat3f::Zero();
   int k = 0;
   for (int a = 0; a < 3; ++a)
     for (int b = 0; b < 3; ++b)
@@ -87,6 +87,7 @@ void GridCoupling::correctFront(std::vector<ParticleSet>& sets, const GridLayout
         const Vec3f r(float(a) - st.fx[0], float(b) - st.fx[1], float(c) - st.fx[2]);
         dv += w * delta;
         dB += w * delta * r.transpose();
+        if ((fp.mask >> k) & 1u) dB_front += w * delta * r.transpose();
       }
   const Mat3f dC = c_scale * dB;
   set.v[q] += dv;
@@ -94,8 +95,17 @@ void GridCoupling::correctFront(std::vector<ParticleSet>& sets, const GridLayout
   set.x[q] = (set.x[q] + p.dt * dv).cwiseMax(p.domain_lo).cwiseMin(p.domain_hi);
   if (set.usesF())
     set.F[q] = (Mat3f::Identity() + p.dt * dC) * set.F[q];
-  else if (set.usesJ())  // water: J alone
-    set.J[q] *= 1.0f + p.dt * dC.trace();
+  else if (set.usesJ()) {  // water: J alone
+    // Its volume changes by the correction at the nodes where it is in
+    // front of a face (the collision compressed that water), not where it
+    // is in the rest: the rest field is the water sliding past the body,
+    // apart from the node's mixture, and sliding changes no volume. With
+    // both, a particle at a face's edge took the divergence of the two
+    // fields at once: the water over the edges expanded and drew the body
+    // up, so that a cube as dense as water, or 1.5 times as dense, rose to
+    // the surface (bench/RESULTS.md, "Two fields: the water's volume").
+    set.J[q] *= 1.0f + p.dt * c_scale * dB_front.trace();
+  }
 }
 
 }  // namespace triad
