@@ -228,6 +228,29 @@ void GridCoupling::scanNearSolids(const std::vector<ParticleSet>& sets, const Gr
       any |= slot[size_t(d)] >= 0 && takesGap(size_t(slot[size_t(d)]));
     }
     if (!any) return;
+    // A particle none of whose nodes holds a solid (has a distance) gives
+    // no gap and no field: most of a block beside a body's blocks. Its
+    // base cell tells, as in gapsOfBlock.
+    constexpr int kReach = kBlockSize + 2;
+    bool has[kReach][kReach][kReach];
+    for (int x = 0; x < kReach; ++x)
+      for (int y = 0; y < kReach; ++y)
+        for (int z = 0; z < kReach; ++z) {
+          const int32_t sl = slot[size_t(neighbourOf(Vec3i::Zero(), x, y, z))];
+          has[x][y][z] =
+              sl >= 0 && nodes_[uint32_t(sl) * kBlockNodes + localNode(x, y, z)].phi > kNoDistance;
+        }
+    uint64_t near = 0;
+    for (int x = 0; x < kBlockSize; ++x)
+      for (int y = 0; y < kBlockSize; ++y)
+        for (int z = 0; z < kBlockSize; ++z) {
+          bool reach = false;
+          for (int a = 0; a < 3 && !reach; ++a)
+            for (int b = 0; b < 3 && !reach; ++b)
+              for (int c = 0; c < 3 && !reach; ++c) reach = has[x + a][y + b][z + c];
+          if (reach) near |= uint64_t(1) << localNode(x, y, z);
+        }
+    if (near == 0) return;
     bool summed = false;
     for (size_t s = 0; s < sets.size(); ++s) {
       const ParticleSet& set = sets[s];
@@ -236,6 +259,7 @@ void GridCoupling::scanNearSolids(const std::vector<ParticleSet>& sets, const Gr
         const Stencil st = stencilAt(set.x[q], p.shifted_origin, p.inv_dx);
         const Vec3i l(st.base.x() & (kBlockSize - 1), st.base.y() & (kBlockSize - 1),
                       st.base.z() & (kBlockSize - 1));
+        if (!(near >> localNode(l.x(), l.y(), l.z()) & 1)) continue;
         // The particle's distance: the envelope of the planes its nodes'
         // distances came from (phi_i + n_i . (x_p - x_i), the largest),
         // exact beside a face, never more than the true distance.
@@ -288,7 +312,11 @@ void GridCoupling::scanNearSolids(const std::vector<ParticleSet>& sets, const Gr
         for (int a = 0; a < 3; ++a)
           for (int b = 0; b < 3; ++b)
             for (int c = 0; c < 3; ++c, ++k27) {
-              if (node[k27] < 0 || !slot_moving_[size_t(node[k27]) / kBlockNodes]) continue;
+              // Nodes that hold no solid (no distance) are never split:
+              // their sums would go unread.
+              if (node[k27] < 0 || plane[k27] <= kNoDistance ||
+                  !slot_moving_[size_t(node[k27]) / kBlockNodes])
+                continue;
               touches = true;
               const float w = st.w[0][a] * st.w[1][b] * st.w[2][c];
               const Vec3f mom =
@@ -297,8 +325,8 @@ void GridCoupling::scanNearSolids(const std::vector<ParticleSet>& sets, const Gr
               f.ma += w * m;
               for (int e = 0; e < 3; ++e) f.pa[e] += mom[e];
               // In front where the node's face faces the way the
-              // particle's nearest face does (or either is unknown).
-              if (nearest >= 0 && plane[k27] > kNoDistance) {
+              // particle's nearest face does.
+              if (nearest >= 0) {
                 const float* dk = nodes_[size_t(node[k27])].dn;
                 if (dk[0] * dn[0] + dk[1] * dn[1] + dk[2] * dn[2] < cos_front) continue;
               }
