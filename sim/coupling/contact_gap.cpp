@@ -40,6 +40,27 @@ float leastBelow(int i, Cell cell) {
   return m;
 }
 
+// The nodes a block's particles' stencils reach: the block's and the
+// first two layers of its + neighbours.
+constexpr int kReach = kBlockSize + 2;
+
+// The block's base cells (a mask of its 64) whose 3^3 stencil reaches a
+// node that `has` a distance: particles elsewhere lie farther from the
+// solids than any node's distance reaches.
+uint64_t nearCells(const bool (&has)[kReach][kReach][kReach]) {
+  uint64_t near = 0;
+  for (int x = 0; x < kBlockSize; ++x)
+    for (int y = 0; y < kBlockSize; ++y)
+      for (int z = 0; z < kBlockSize; ++z) {
+        bool reach = false;
+        for (int a = 0; a < 3 && !reach; ++a)
+          for (int b = 0; b < 3 && !reach; ++b)
+            for (int c = 0; c < 3 && !reach; ++c) reach = has[x + a][y + b][z + c];
+        if (reach) near |= uint64_t(1) << localNode(x, y, z);
+      }
+  return near;
+}
+
 }  // namespace
 
 void GridCoupling::measureNearSolids(const std::vector<ParticleSet>& sets, const GridLayout& layout,
@@ -93,7 +114,6 @@ void GridCoupling::gapsOfBlock(uint32_t pb, const std::vector<ParticleSet>& sets
   // used): a particle then reads the three planes of a stencil row in one
   // vector. A node without a distance (or without a slot) has -1e30 and a
   // zero normal, so its plane is -1e30 at any particle.
-  constexpr int kReach = kBlockSize + 2;
   alignas(32) float phi_row[kReach][kReach][8], nx_row[kReach][kReach][8],
       ny_row[kReach][kReach][8], nz_row[kReach][kReach][8];
   bool has[kReach][kReach][kReach];
@@ -124,16 +144,7 @@ void GridCoupling::gapsOfBlock(uint32_t pb, const std::vector<ParticleSet>& sets
   // Most particles here lie farther from the solids than any node's
   // distance reaches: a base cell is near when a node of its 3^3 stencil
   // has a distance, and the others are skipped.
-  uint64_t near = 0;
-  for (int x = 0; x < kBlockSize; ++x)
-    for (int y = 0; y < kBlockSize; ++y)
-      for (int z = 0; z < kBlockSize; ++z) {
-        bool reach = false;
-        for (int a = 0; a < 3 && !reach; ++a)
-          for (int b = 0; b < 3 && !reach; ++b)
-            for (int c = 0; c < 3 && !reach; ++c) reach = has[x + a][y + b][z + c];
-        if (reach) near |= uint64_t(1) << localNode(x, y, z);
-      }
+  const uint64_t near = nearCells(has);
   if (near == 0) return;
   // The least clearance of each base cell's particles; a node's is then
   // the least of the cells whose stencils reach it (a min is exact in any
@@ -231,7 +242,6 @@ void GridCoupling::scanNearSolids(const std::vector<ParticleSet>& sets, const Gr
     // A particle none of whose nodes holds a solid (has a distance) gives
     // no gap and no field: most of a block beside a body's blocks. Its
     // base cell tells, as in gapsOfBlock.
-    constexpr int kReach = kBlockSize + 2;
     bool has[kReach][kReach][kReach];
     for (int x = 0; x < kReach; ++x)
       for (int y = 0; y < kReach; ++y)
@@ -240,16 +250,7 @@ void GridCoupling::scanNearSolids(const std::vector<ParticleSet>& sets, const Gr
           has[x][y][z] =
               sl >= 0 && nodes_[uint32_t(sl) * kBlockNodes + localNode(x, y, z)].phi > kNoDistance;
         }
-    uint64_t near = 0;
-    for (int x = 0; x < kBlockSize; ++x)
-      for (int y = 0; y < kBlockSize; ++y)
-        for (int z = 0; z < kBlockSize; ++z) {
-          bool reach = false;
-          for (int a = 0; a < 3 && !reach; ++a)
-            for (int b = 0; b < 3 && !reach; ++b)
-              for (int c = 0; c < 3 && !reach; ++c) reach = has[x + a][y + b][z + c];
-          if (reach) near |= uint64_t(1) << localNode(x, y, z);
-        }
+    const uint64_t near = nearCells(has);
     if (near == 0) return;
     bool summed = false;
     for (size_t s = 0; s < sets.size(); ++s) {
