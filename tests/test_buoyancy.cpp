@@ -309,10 +309,10 @@ TEST(SubmergedSlab, ElasticOneStaysCalm) {
 // 3-cell slab of half water's density rises to the surface and floats
 // with solver.front_fields: the water beside the slab slips past its edges
 // instead of being dragged along (bench/RESULTS.md, "Two fields at a
-// face's edges"). Measured: it rises 7.0 cm in 1.5 s (4.2 cm with one
-// field, whose slab crawls up at 2.5-3 cm/s) and reaches the surface by
-// 2.2 s; over 2.5-3 s its draft is 0.37 dx deeper than Archimedes' (the
-// band of rest). Until the water's volume took only the front field's
+// face's edges"). Measured: it rises 7.0 cm in 1.5 s (with one field the
+// slab crawls up at 2.5-3 cm/s: 2.9 cm in 1 s) and reaches the surface by
+// 2.2 s; over 2.5-3 s its draft is 0.37-0.40 dx deeper than Archimedes'
+// (the band of rest). Until the water's volume took only the front field's
 // correction it rose twice as fast, partly lifted by the water over its
 // edges expanding (SubmergedCube below).
 TEST(SubmergedSlab, RisesAndFloatsWithFrontFields) {
@@ -348,8 +348,8 @@ TEST(SubmergedSlab, RisesAndFloatsWithFrontFields) {
 // nodes and in the rest at others, that divergence expanded the water over
 // the edges and drew the cube up, so both cubes rose to the surface (the
 // neutral one 10 cm in 0.9 s). Measured now over 1.2 s: the neutral cube
-// moves at most 0.0084 m, the dense one sinks 0.067 m (one field: it
-// sinks about 0.044 m in 2 s).
+// moves at most 0.0093 m, the dense one sinks 0.067 m (with one field the
+// neutral one sinks 0.026 m and the dense one 0.054 m).
 TEST(SubmergedCube, FrontFieldsNeitherLiftNorHoldIt) {
   for (const double ratio : {1.0, 1.5}) {
     const std::string name = "cube_fronts_" + std::to_string(int(std::lround(10 * ratio)));
