@@ -3,10 +3,12 @@
 // load it through the real scene loader, and measure particle state.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <utility>
 
 #include "import/scene_loader.h"
 #include "import/mesh_sampler.h"
@@ -49,6 +51,27 @@ inline nlohmann::json baseScene(const std::string& name, const std::array<double
 
 inline nlohmann::json box(const std::array<double, 3>& lo, const std::array<double, 3>& hi) {
   return {{"box", {{"min", lo}, {"max", hi}}}};
+}
+
+// MPM objects water0..water5 of `material` filling a tank of `x` by `z`
+// to `depth` round the box [lo, hi] inside it: under it, over it, then
+// either side along x, then along z.
+inline void addWaterRoundBox(nlohmann::json& scene, const std::string& material, double x, double z,
+                             double depth, const std::array<double, 3>& lo,
+                             const std::array<double, 3>& hi) {
+  const std::array<std::pair<std::array<double, 3>, std::array<double, 3>>, 6> boxes = {{
+      {{0, 0, 0}, {x, lo[1], z}},
+      {{0, hi[1], 0}, {x, depth, z}},
+      {{0, lo[1], 0}, {lo[0], hi[1], z}},
+      {{hi[0], lo[1], 0}, {x, hi[1], z}},
+      {{lo[0], lo[1], 0}, {hi[0], hi[1], lo[2]}},
+      {{lo[0], lo[1], hi[2]}, {hi[0], hi[1], z}},
+  }};
+  for (size_t k = 0; k < boxes.size(); ++k)
+    scene["objects"].push_back({{"name", "water" + std::to_string(k)},
+                                {"kind", "mpm"},
+                                {"material", material},
+                                {"shape", box(boxes[k].first, boxes[k].second)}});
 }
 
 inline World loadWorld(const std::filesystem::path& dir, const nlohmann::json& j) {

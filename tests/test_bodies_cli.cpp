@@ -407,14 +407,7 @@ TEST(BodiesCache, ForcesTableGivesTheBuoyancyOfAFixedBoxUnderWater) {
   j["materials"]["water"] = {{"model", "water"}, {"density", 1000}, {"bulk_modulus", 1e5},
                              {"viscosity", 50}};
   // Water 0.3 m deep around the box [0.15, 0.25] x [0.1, 0.2] x [0.15, 0.25].
-  const std::vector<std::pair<std::array<double, 3>, std::array<double, 3>>> water = {
-      {{0, 0, 0}, {0.4, 0.1, 0.4}},       {{0, 0.2, 0}, {0.4, 0.3, 0.4}},
-      {{0, 0.1, 0}, {0.15, 0.2, 0.4}},    {{0.25, 0.1, 0}, {0.4, 0.2, 0.4}},
-      {{0.15, 0.1, 0}, {0.25, 0.2, 0.15}}, {{0.15, 0.1, 0.25}, {0.25, 0.2, 0.4}}};
-  for (size_t k = 0; k < water.size(); ++k)
-    j["objects"].push_back({{"name", "water" + std::to_string(k)}, {"kind", "mpm"},
-                            {"material", "water"},
-                            {"shape", test::box(water[k].first, water[k].second)}});
+  test::addWaterRoundBox(j, "water", 0.4, 0.4, 0.3, {0.15, 0.1, 0.15}, {0.25, 0.2, 0.25});
   j["objects"].push_back({{"name", "box"}, {"kind", "rigid"}, {"density", 2000}, {"fixed", true},
                           {"shape", test::box({0.15, 0.1, 0.15}, {0.25, 0.2, 0.25})}});
   j["output"] = {{"ply", false}, {"vdb", false}, {"png", false}};
@@ -429,15 +422,13 @@ TEST(BodiesCache, ForcesTableGivesTheBuoyancyOfAFixedBoxUnderWater) {
   const double buoyancy = 1000 * 9.81 * 0.1 * 0.1 * 0.1;
   std::printf("fixed box under water: fy %.3f N (rho g V %.3f N), fx %.3f, fz %.3f, torque %.4f %.4f %.4f\n",
               mean[1], buoyancy, mean[0], mean[2], mean[3], mean[4], mean[5]);
-  // Measured 9.33 N, 4.9% short at this dx (four cells across the box; 9.23 N
-  // with the summed sample normals). The box's faces lie on node planes, one
-  // of its better places: moved up by half a cell it feels 8.51 N, by 3/8
-  // (faces between the particle lattice's planes) 5.60 N, and its edge
-  // samples' normals, which rounding picks, are worth 1.2 N here
-  // (bench/RESULTS.md, "Where a body lies in its cell" and "The fixed box's
-  // force taken apart"; bench/study_fixed_box.py); a body of water's weight
-  // would be 10% (the box is sampled at dx/2, so its volume is exact).
-  // Without the fixed solids' node impulses: 0.
+  // Measured 9.28 N, 5.4% short at this dx (9.33 N when first written; four
+  // cells across the box; 9.23 N with the summed sample normals). The box's faces lie on node
+  // planes, one of its better places: moved up by half a cell it feels 8.51 N, by 3/8 (faces
+  // between the particle lattice's planes) 5.60 N, and its edge samples' normals, which rounding
+  // picks, are worth 1.2 N here (bench/RESULTS.md, "Where a body lies in its cell" and "The fixed
+  // box's force taken apart"; bench/study_fixed_box.py); a body of water's weight would be 10% (the
+  // box is sampled at dx/2, so its volume is exact). Without the fixed solids' node impulses: 0.
   EXPECT_NEAR(mean[1], buoyancy, 0.08 * buoyancy);
   EXPECT_NEAR(mean[0], 0.0, 0.02 * buoyancy);
   EXPECT_NEAR(mean[2], 0.0, 0.02 * buoyancy);

@@ -357,18 +357,7 @@ TEST(SubmergedCube, FrontFieldsNeitherLiftNorHoldIt) {
     j["solver"]["front_fields"] = true;
     j["materials"]["water"] = {{"model", "water"}, {"density", 1000}, {"bulk_modulus", 2e5}};
     const std::array<double, 3> lo{0.16, 0.11, 0.16}, hi{0.24, 0.19, 0.24};
-    const std::vector<std::pair<std::array<double, 3>, std::array<double, 3>>> water = {
-        {{0, 0, 0}, {0.4, lo[1], 0.4}},
-        {{0, hi[1], 0}, {0.4, 0.3, 0.4}},
-        {{0, lo[1], 0}, {lo[0], hi[1], 0.4}},
-        {{hi[0], lo[1], 0}, {0.4, hi[1], 0.4}},
-        {{lo[0], lo[1], 0}, {hi[0], hi[1], lo[2]}},
-        {{lo[0], lo[1], hi[2]}, {hi[0], hi[1], 0.4}}};
-    for (size_t k = 0; k < water.size(); ++k)
-      j["objects"].push_back({{"name", "water" + std::to_string(k)},
-                              {"kind", "mpm"},
-                              {"material", "water"},
-                              {"shape", box(water[k].first, water[k].second)}});
+    test::addWaterRoundBox(j, "water", 0.4, 0.4, 0.3, lo, hi);
     j["objects"].push_back(
         {{"name", "cube"}, {"kind", "rigid"}, {"density", 1000 * ratio}, {"shape", box(lo, hi)}});
     World w = test::loadWorld(test::tempDir(name), j);
@@ -555,7 +544,9 @@ Vec3d meanForceFromHalfTime(const std::filesystem::path& dir, const json& j) {
 // thousandth of that: the water behind the log lags it (not asserted).
 TEST(FloatingLog, SpanningTheTankItFeelsItsBuoyancy) {
   for (const std::string kind : {"rigid", "collider", "animated collider"}) {
-    const std::filesystem::path dir = test::tempDir("log_submerged_" + std::to_string(kind.size()));
+    std::string slug = kind;
+    std::replace(slug.begin(), slug.end(), ' ', '_');
+    const std::filesystem::path dir = test::tempDir("log_submerged_" + slug);
     json j = logScene(dir, 0.1, 0.1, 0.0, 0.15, true, 1.5);
     if (kind != "rigid") {
       json& log = j["objects"].back();
