@@ -24,6 +24,12 @@
 // STUDY_SPHERE=1 puts a sphere of diameter CELLS * 0.02 m in place of the
 // slab; STUDY_SURFACE=1 prints the water surface across the slab and the
 // spread of particle J by layer at the end.
+// STUDY_HYDRO=1 starts the water at its hydrostatic pressure (J from the
+// depth under the highest particle) instead of at none, so that the tank
+// does not ring; STUDY_STEPS=1 prints the body's height and velocity every
+// step; STUDY_FIELD=1 prints, at the end, the water's mean velocity (mm/s)
+// and pressure (Pa) per cell in the slab's mid-plane; STUDY_DRIVE_X=1 makes
+// --drive move the slab along its length (x) instead of up.
 #include <omp.h>
 
 #include <algorithm>
@@ -148,6 +154,21 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "%s\n", e.what());
     return 1;
   }
+  if (getenv("STUDY_HYDRO")) {
+    // Water starts at its hydrostatic pressure under a flat surface (the
+    // highest particle and half a spacing), not at none.
+    float top = 0;
+    for (const triad::ParticleSet& set : w.sets)
+      if (std::get_if<triad::Water<float>>(&set.model))
+        for (size_t i = 0; i < set.size(); ++i) top = std::max(top, set.x[i].y());
+    top += float(0.25 * s.dx);
+    for (triad::ParticleSet& set : w.sets)
+      if (const auto* wat = std::get_if<triad::Water<float>>(&set.model))
+        for (size_t i = 0; i < set.size(); ++i) {
+          const float p = 1000.0f * 9.81f * (top - set.x[i].y());
+          set.J[i] = std::pow(1.0f + wat->gamma * p / wat->bulk, -1.0f / wat->gamma);
+        }
+  }
   triad::Solver solver(w);
 
   // The slab's bottom and mean height; the water level from the water's
@@ -198,12 +219,61 @@ int main(int argc, char** argv) {
     solver.resetLoads();
     if (s.drive != 0)
       solver.advanceTo(s.settle + k / 20.0, [&](double) {
-        w.bodies[0].state.v = Vec3d(0, s.drive, 0);
+        w.bodies[0].state.v = getenv("STUDY_DRIVE_X") ? Vec3d(s.drive, 0, 0) : Vec3d(0, s.drive, 0);
         w.bodies[0].state.L.setZero();
+      });
+    else if (getenv("STUDY_STEPS") && !w.bodies.empty())
+      // Each step's body height and velocity, to see the motion inside a frame.
+      solver.advanceTo(s.settle + k / 20.0, [&](double dt) {
+        std::printf("    step dt %.2e y %.6f vy %.5f\n", dt, w.bodies[0].state.x.y(),
+                    w.bodies[0].state.v.y());
       });
     else
       solver.advanceTo(s.settle + k / 20.0);
     const double b = bottom(), l = level(), d = l - b;
+    if (getenv("STUDY_FIELD") && k == n) {
+      // The water's mean velocity per cell in the slab's middle (0.04 m
+      // either side of its mid-plane in z), x along, y up: vx and vy in mm/s.
+      const int nx = int(std::round(kX / s.dx)), ny = int(std::round(0.24 / s.dx));
+      std::vector<double> sx(size_t(nx * ny)), sy(sx.size()), sp(sx.size()), cnt(sx.size());
+      for (const triad::ParticleSet& set : w.sets) {
+        if (!std::get_if<triad::Water<float>>(&set.model)) continue;
+        for (size_t i = 0; i < set.size(); ++i) {
+          const triad::Vec3f& x = set.x[i];
+          if (std::abs(x.z() - 0.5 * (kSz0 + kSz1)) > 0.04) continue;
+          const int cx = int(x.x() / s.dx), cy = int(x.y() / s.dx);
+          if (cx < 0 || cx >= nx || cy < 0 || cy >= ny) continue;
+          sx[size_t(cy * nx + cx)] += set.v[i].x();
+          sy[size_t(cy * nx + cx)] += set.v[i].y();
+          sp[size_t(cy * nx + cx)] +=
+              std::get_if<triad::Water<float>>(&set.model)->pressure(set.J[i]);
+          cnt[size_t(cy * nx + cx)] += 1;
+        }
+      }
+      for (int cy = ny - 1; cy >= 0; --cy) {
+        std::printf("y%5.3f", (cy + 0.5) * s.dx);
+        for (int cx = 0; cx < nx; ++cx) {
+          const size_t c = size_t(cy * nx + cx);
+          if (cnt[c] == 0)
+            std::printf("    .    ");
+          else
+            std::printf(" %4.0f,%-4.0f", 1000 * sx[c] / cnt[c], 1000 * sy[c] / cnt[c]);
+        }
+        std::printf("\n");
+      }
+      // The water's mean pressure per cell, Pa.
+      for (int cy = ny - 1; cy >= 0; --cy) {
+        std::printf("p%5.3f", (cy + 0.5) * s.dx);
+        for (int cx = 0; cx < nx; ++cx) {
+          const size_t c = size_t(cy * nx + cx);
+          if (cnt[c] == 0)
+            std::printf("     .");
+          else
+            std::printf(" %5.0f", sp[c] / cnt[c]);
+        }
+        std::printf("\n");
+      }
+    }
     // The water's force on the slab over the interval, in units of the
     // slab's weight.
     const double weight = w.bodies.empty() ? 1.0 : rho * t * slab_area * 9.81;
