@@ -29,7 +29,11 @@
 // does not ring; STUDY_STEPS=1 prints the body's height and velocity every
 // step; STUDY_FIELD=1 prints, at the end, the water's mean velocity (mm/s)
 // and pressure (Pa) per cell in the slab's mid-plane; STUDY_DRIVE_X=1 makes
-// --drive move the slab along its length (x) instead of up.
+// --drive move the slab along its length (x) instead of up; STUDY_HOLD=1
+// keeps a driven slab where it started (its faces move, it does not);
+// STUDY_SPAN=1 makes the slab span the tank along x (no ends there);
+// STUDY_FPS sets the frame rate of the trace (default 20), and
+// STUDY_FIELD=all prints the field at every frame.
 #include <omp.h>
 
 #include <algorithm>
@@ -91,6 +95,10 @@ int main(int argc, char** argv) {
       kX = 0.5;
     }
   }
+  if (getenv("STUDY_SPAN")) {  // the slab spans the tank along x
+    kSx0 = 0.0;
+    kSx1 = kX;
+  }
   const double t = s.thick * 0.02, rho = 1000 * s.ratio;
   const double area = kX * kZ, slab_area = (kSx1 - kSx0) * (kSz1 - kSz0);
   const double draft = s.ratio < 1 ? s.ratio * t : t;
@@ -130,6 +138,16 @@ int main(int argc, char** argv) {
                 {"poisson_ratio", 0.3}}}}},
             {"objects", json::array()}};
   if (s.drive != 0 && !getenv("STUDY_GRAVITY")) j["gravity"] = {0, 0, 0};
+  // Boxes of no volume (beside a slab that spans the tank) are left out.
+  water.erase(
+      std::remove_if(water.begin(), water.end(),
+                     [](const json& b) {
+                       for (int d = 0; d < 3; ++d)
+                         if (b["box"]["max"][d].get<double>() <= b["box"]["min"][d].get<double>())
+                           return true;
+                       return false;
+                     }),
+      water.end());
   for (size_t k = 0; k < water.size(); ++k)
     j["objects"].push_back({{"name", "w" + std::to_string(k)}, {"kind", "mpm"},
                             {"material", "water"}, {"shape", water[k]}});
@@ -212,26 +230,33 @@ int main(int argc, char** argv) {
   const double wall0 = omp_get_wtime();
   const triad::Mat3d rotation0 =
       w.bodies.empty() ? triad::Mat3d::Identity() : w.bodies[0].rotation();
-  const int n = int(std::round(s.time * 20));
+  // Frames (20 a second; STUDY_FPS sets another rate).
+  const double fps = getenv("STUDY_FPS") ? std::stod(getenv("STUDY_FPS")) : 20.0;
+  const int n = int(std::round(s.time * fps));
   double mean_draft = 0;
   int counted = 0;
+  const Vec3d held_x = w.bodies.empty() ? Vec3d::Zero() : w.bodies[0].state.x;
   for (int k = 1; k <= n; ++k) {
     solver.resetLoads();
     if (s.drive != 0)
-      solver.advanceTo(s.settle + k / 20.0, [&](double) {
+      solver.advanceTo(s.settle + k / fps, [&](double) {
+        if (getenv("STUDY_STEPS"))  // where the step left the body, before the drive resets it
+          std::printf("    step x %.6f y %.6f v %.5f %.5f\n", w.bodies[0].state.x.x(),
+                      w.bodies[0].state.x.y(), w.bodies[0].state.v.x(), w.bodies[0].state.v.y());
+        if (getenv("STUDY_HOLD")) w.bodies[0].state.x = held_x;  // moving faces that stay put
         w.bodies[0].state.v = getenv("STUDY_DRIVE_X") ? Vec3d(s.drive, 0, 0) : Vec3d(0, s.drive, 0);
         w.bodies[0].state.L.setZero();
       });
     else if (getenv("STUDY_STEPS") && !w.bodies.empty())
       // Each step's body height and velocity, to see the motion inside a frame.
-      solver.advanceTo(s.settle + k / 20.0, [&](double dt) {
+      solver.advanceTo(s.settle + k / fps, [&](double dt) {
         std::printf("    step dt %.2e y %.6f vy %.5f\n", dt, w.bodies[0].state.x.y(),
                     w.bodies[0].state.v.y());
       });
     else
-      solver.advanceTo(s.settle + k / 20.0);
+      solver.advanceTo(s.settle + k / fps);
     const double b = bottom(), l = level(), d = l - b;
-    if (getenv("STUDY_FIELD") && k == n) {
+    if (getenv("STUDY_FIELD") && (k == n || std::string(getenv("STUDY_FIELD")) == "all")) {
       // The water's mean velocity per cell in the slab's middle (0.04 m
       // either side of its mid-plane in z), x along, y up: vx and vy in mm/s.
       const int nx = int(std::round(kX / s.dx)), ny = int(std::round(0.24 / s.dx));
@@ -260,6 +285,36 @@ int main(int argc, char** argv) {
             std::printf(" %4.0f,%-4.0f", 1000 * sx[c] / cnt[c], 1000 * sy[c] / cnt[c]);
         }
         std::printf("\n");
+      }
+      // Across the tank at the slab's middle (0.02 m either side of its
+      // centre in x): the water's mean vx and vy per cell, z along, y up, mm/s.
+      {
+        const int nz = int(std::round(kZ / s.dx));
+        std::vector<double> ax(size_t(nz * ny)), ay(ax.size()), an(ax.size());
+        const double xm = 0.5 * (sx0 + sx1);
+        for (const triad::ParticleSet& set : w.sets) {
+          if (!std::get_if<triad::Water<float>>(&set.model)) continue;
+          for (size_t i = 0; i < set.size(); ++i) {
+            const triad::Vec3f& x = set.x[i];
+            if (std::abs(x.x() - xm) > 0.02) continue;
+            const int cz = int(x.z() / s.dx), cy = int(x.y() / s.dx);
+            if (cz < 0 || cz >= nz || cy < 0 || cy >= ny) continue;
+            ax[size_t(cy * nz + cz)] += set.v[i].x();
+            ay[size_t(cy * nz + cz)] += set.v[i].y();
+            an[size_t(cy * nz + cz)] += 1;
+          }
+        }
+        for (int cy = ny - 1; cy >= 0; --cy) {
+          std::printf("x%5.3f", (cy + 0.5) * s.dx);
+          for (int cz = 0; cz < nz; ++cz) {
+            const size_t c = size_t(cy * nz + cz);
+            if (an[c] == 0)
+              std::printf("     .    ");
+            else
+              std::printf(" %4.0f,%-4.0f", 1000 * ax[c] / an[c], 1000 * ay[c] / an[c]);
+          }
+          std::printf("\n");
+        }
       }
       // The water's mean pressure per cell, Pa.
       for (int cy = ny - 1; cy >= 0; --cy) {
@@ -382,7 +437,7 @@ int main(int argc, char** argv) {
         vib = std::sqrt(vib / f.totalMass());
       }
       std::printf("t %.2f bottom %.4f level %.4f draft %.4f (%+.2f dx) v %.3f F/mg %.3f%s\n",
-                  k / 20.0, b, l, d, (d - draft) / s.dx, vy, fy,
+                  k / fps, b, l, d, (d - draft) / s.dx, vy, fy,
                   w.elastics.empty() ? "" : (" vibration " + std::to_string(vib)).c_str());
     }
     if (k > n / 2) {
