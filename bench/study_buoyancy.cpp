@@ -24,8 +24,8 @@
 // STUDY_SPHERE=1 puts a sphere of diameter CELLS * 0.02 m in place of the
 // slab; STUDY_SURFACE=1 prints the water surface across the slab and the
 // spread of particle J by layer at the end.
-// STUDY_HYDRO=1 starts the water at its hydrostatic pressure (J from the
-// depth under the highest particle) instead of at none, so that the tank
+// STUDY_HYDRO=1 starts the water at its hydrostatic pressure (the objects'
+// "initial_pressure": "hydrostatic") instead of at none, so that the tank
 // does not ring; STUDY_STEPS=1 prints the body's height and velocity every
 // step; STUDY_FIELD=1 prints, at the end, the water's mean velocity (mm/s)
 // and pressure (Pa) per cell in the slab's mid-plane; STUDY_DRIVE_X=1 makes
@@ -148,9 +148,11 @@ int main(int argc, char** argv) {
                        return false;
                      }),
       water.end());
-  for (size_t k = 0; k < water.size(); ++k)
+  for (size_t k = 0; k < water.size(); ++k) {
     j["objects"].push_back({{"name", "w" + std::to_string(k)}, {"kind", "mpm"},
                             {"material", "water"}, {"shape", water[k]}});
+    if (getenv("STUDY_HYDRO")) j["objects"].back()["initial_pressure"] = "hydrostatic";
+  }
   if (getenv("STUDY_SHIFT")) y0 += std::stod(getenv("STUDY_SHIFT")) * s.dx;
   json slab = {{"name", "slab"}, {"kind", s.kind}, {"shape", box({sx0, y0, kSz0}, {sx1, y0 + t, kSz1})}};
   if (getenv("STUDY_SPHERE"))
@@ -171,21 +173,6 @@ int main(int argc, char** argv) {
   } catch (const std::exception& e) {
     std::fprintf(stderr, "%s\n", e.what());
     return 1;
-  }
-  if (getenv("STUDY_HYDRO")) {
-    // Water starts at its hydrostatic pressure under a flat surface (the
-    // highest particle and half a spacing), not at none.
-    float top = 0;
-    for (const triad::ParticleSet& set : w.sets)
-      if (std::get_if<triad::Water<float>>(&set.model))
-        for (size_t i = 0; i < set.size(); ++i) top = std::max(top, set.x[i].y());
-    top += float(0.25 * s.dx);
-    for (triad::ParticleSet& set : w.sets)
-      if (const auto* wat = std::get_if<triad::Water<float>>(&set.model))
-        for (size_t i = 0; i < set.size(); ++i) {
-          const float p = 1000.0f * 9.81f * (top - set.x[i].y());
-          set.J[i] = std::pow(1.0f + wat->gamma * p / wat->bulk, -1.0f / wat->gamma);
-        }
   }
   triad::Solver solver(w);
 

@@ -37,6 +37,8 @@ const ParamDict::Choices<ContactVelocity> kContactVelocities = {
 const ParamDict::Choices<SolidReadback> kReadbacks = {
     {"momentum_conserving", SolidReadback::MomentumConserving},
     {"combined", SolidReadback::Combined}};
+const ParamDict::Choices<InitialPressure> kInitialPressures = {
+    {"none", InitialPressure::None}, {"hydrostatic", InitialPressure::Hydrostatic}};
 const ParamDict::Choices<ElasticIntegrator> kIntegrators = {
     {"explicit", ElasticIntegrator::Explicit}, {"implicit", ElasticIntegrator::Implicit}};
 const ParamDict::Choices<RigidNodeMass> kNodeMasses = {{"body_share", RigidNodeMass::BodyShare},
@@ -407,6 +409,7 @@ std::string objectKeyHint(ObjectKind kind, const std::string& key) {
   if (key == "density")
     return "only rigid objects take a density; others get it from their material";
   if (key == "fixed" || key == "angular_velocity") return "only rigid objects take it";
+  if (key == "initial_pressure") return "only MPM objects of a water material take it";
   if (key == "integrator" || key == "damping") return "only elastic objects take it";
   if (key == "sample_spacing" && kind == ObjectKind::Mpm)
     return "only rigid, elastic and collider objects take it; MPM objects use "
@@ -511,6 +514,19 @@ ObjectDesc parseObject(const ParamDict& d, const std::vector<MaterialDesc>& mate
     case ObjectKind::Mpm:
       o.material = resolveMaterial(d, materials);
       if (auto e = d.getDict("emit")) o.emit = parseEmit(*e);
+      o.initial_pressure = d.getEnum("initial_pressure", o.initial_pressure, kInitialPressures);
+      if (o.initial_pressure == InitialPressure::Hydrostatic) {
+        const MaterialDesc& m = materials[static_cast<std::size_t>(o.material)];
+        if (m.model != MaterialModel::Water)
+          d.fail("initial_pressure",
+                 "expected a water material for \"hydrostatic\" (the "
+                 "pressure of water at rest), got " +
+                     inQuotes(m.name) + " of model " + inQuotes(nameOf(kModels, m.model)));
+        if (o.emit)
+          d.fail("initial_pressure",
+                 "expected \"none\" for a source: its water is made "
+                 "moving, not at rest");
+      }
       // A source may move; a body of material moves by its own physics.
       if (o.emit)
         if (auto a = d.getDict("animation")) o.animation = parseAnimation(*a);

@@ -183,6 +183,10 @@ struct EmitDesc {
   double end = 0.0;
 };
 
+// The state an MPM object's water starts in: no pressure (J = 1), or the
+// pressure of the water above it at rest.
+enum class InitialPressure { None, Hydrostatic };
+
 struct ObjectDesc {
   std::string name;
   ObjectKind kind = ObjectKind::Mpm;
@@ -198,6 +202,7 @@ struct ObjectDesc {
   double sample_spacing = 0.0;  // m, collision particle spacing (rigid, elastic, collider); 0: dx / 2
   std::optional<AnimationDesc> animation;  // collider, sink, mpm source
   std::optional<EmitDesc> emit;            // mpm only: a source
+  InitialPressure initial_pressure = InitialPressure::None;  // mpm water only
 };
 
 struct OutputDesc {

@@ -9,6 +9,7 @@
 #include <optional>
 
 #include "sim/errors.h"
+#include "sim/mpm/hydrostatic.h"
 #include "sim/mpm/sampling.h"
 
 namespace triad {
@@ -414,8 +415,30 @@ World buildWorld(const SceneDesc& scene, const MeshSampler& mesh_sampler,
   }
   world.next_id = next_id;
 
+  // Water that starts at rest under its own weight: its levels from every
+  // water particle the objects made (not the sources': they start moving).
+  const bool hydrostatic = std::any_of(
+      scene.objects.begin(), scene.objects.end(),
+      [](const ObjectDesc& o) { return o.initial_pressure == InitialPressure::Hydrostatic; });
+  std::optional<WaterLevels> levels;
+  if (hydrostatic) {
+    levels.emplace(domain, Vec3d(scene.gravity[0], scene.gravity[1], scene.gravity[2]),
+                   domain.dx / std::cbrt(double(ppc)));
+    const auto isWater = [&](size_t set) {
+      return std::holds_alternative<Water<float>>(world.sets[set].model);
+    };
+    for (size_t k = 0; k < world.sets.size(); ++k)
+      if (isWater(k))
+        for (const Vec3f& x : world.sets[k].x) levels->add(x);
+    for (const Sampled& o : sampled)
+      if (isWater(o.set))
+        for (const Vec3f& x : o.points) levels->add(x);
+    levels->finish();
+  }
+
   // Sources that start at once are full in the first frame.
   if (!share) {
+    if (levels) startHydrostatic(world, *levels);
     world.whole_particles += emitFromSources(world.sources, world.sets, domain, 0.0, world.next_id);
     return world;
   }
@@ -464,6 +487,7 @@ World buildWorld(const SceneDesc& scene, const MeshSampler& mesh_sampler,
       world.share_index[k].push_back(whole_count[k] + i);
     }
   }
+  if (levels) startHydrostatic(world, *levels);
   return world;
 }
 

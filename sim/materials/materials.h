@@ -46,6 +46,10 @@ struct Water {
   static T clampJ(T J) { return std::clamp(J, kMinJ, kMaxJ); }
 
   T pressure(T J) const { return bulk / gamma * (std::pow(clampJ(J), -gamma) - T(1)); }
+  // The J whose pressure is p (the inverse of pressure()), within the clamp.
+  T jAtPressure(T p) const {
+    return clampJ(std::pow(std::max(T(1) + gamma * p / bulk, T(1e-12)), T(-1) / gamma));
+  }
 
   T psi(T J) const {
     const T Jc = clampJ(J);
