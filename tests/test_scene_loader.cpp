@@ -920,6 +920,29 @@ TEST_F(SceneLoaderTest, NamesMustBeSafeForFiles) {
   EXPECT_TRUE(contains(error(with(exampleScene(), "/name", "")), {"name", "non-empty"}));
 }
 
+TEST_F(SceneLoaderTest, HydrostaticStartOnlyForWaterAtRest) {
+  json j = exampleScene();
+  j["materials"]["water"] = {{"model", "water"}, {"density", 1000}, {"bulk_modulus", 1e5}};
+  j["objects"][0]["material"] = "water";
+  EXPECT_EQ(load(j).objects[0].initial_pressure, InitialPressure::None);
+  EXPECT_EQ(load(with(j, "/objects/0/initial_pressure", "hydrostatic")).objects[0].initial_pressure,
+            InitialPressure::Hydrostatic);
+  EXPECT_EQ(load(with(j, "/objects/0/initial_pressure", "none")).objects[0].initial_pressure,
+            InitialPressure::None);
+  EXPECT_TRUE(contains(error(with(j, "/objects/0/initial_pressure", "hydrostatik")),
+                       {"objects[0].initial_pressure", "\"hydrostatic\""}));
+  // Sand has no pressure of its own to start from; a source's water moves.
+  EXPECT_TRUE(
+      contains(error(with(exampleScene(), "/objects/0/initial_pressure", "hydrostatic")),
+               {"objects[0].initial_pressure", "water material", "\"sand\"", "drucker_prager"}));
+  json source = with(j, "/objects/0/initial_pressure", "hydrostatic");
+  source["objects"][0]["emit"] = {{"start", 0}, {"end", 1}};
+  EXPECT_TRUE(contains(error(source), {"objects[0].initial_pressure", "source"}));
+  // objects[2] of the example scene is a rigid ball.
+  EXPECT_TRUE(contains(error(with(exampleScene(), "/objects/2/initial_pressure", "hydrostatic")),
+                       {"objects[2].initial_pressure", "only MPM objects of a water material"}));
+}
+
 TEST_F(SceneLoaderTest, IntegratorOnlyForElasticObjects) {
   // objects[2] of the example scene is a rigid ball.
   EXPECT_TRUE(contains(error(with(exampleScene(), "/objects/2/integrator", "implicit")),
