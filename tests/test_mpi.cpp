@@ -250,6 +250,41 @@ TEST_F(Mpi, TwoAndThreeProcessesAgreeWithOne) {
   }
 }
 
+// Water started at its hydrostatic pressure: every process builds the
+// levels from the whole world's water, not from its share, so its
+// particles start with the J one process gives them, and stay the same
+// bytes.
+TEST_F(Mpi, HydrostaticStartAgreesWithOneProcess) {
+  const fs::path dir = test::tempDir("hydrostatic");
+  json j = test::baseScene("mpi_tank", {0.4, 0.3, 0.2}, 0.02);
+  j["frames"]["count"] = 2;
+  j["materials"] = {{"water", {{"model", "water"}, {"density", 1000}, {"bulk_modulus", 1e5}}}};
+  j["objects"].push_back({{"name", "lower"},
+                          {"kind", "mpm"},
+                          {"material", "water"},
+                          {"initial_pressure", "hydrostatic"},
+                          {"shape", test::box({0, 0, 0}, {0.4, 0.1, 0.2})}});
+  j["objects"].push_back({{"name", "upper"},
+                          {"kind", "mpm"},
+                          {"material", "water"},
+                          {"initial_pressure", "hydrostatic"},
+                          {"shape", test::box({0, 0.1, 0}, {0.4, 0.2, 0.2})}});
+  j["output"] = {{"vdb", false}, {"png", false}};
+  const std::string scene = test::writeScene(dir, j);
+  const test::CliResult one = run(dir, scene, dir / "one", "OMP_NUM_THREADS=1");
+  ASSERT_EQ(one.status, 0) << one.err;
+  // The deepest water starts at about rho g h = 1962 Pa (J 0.980).
+  const std::vector<Particle> start = readParticles(framePly(dir / "one", 0));
+  const auto deepest = std::min_element(
+      start.begin(), start.end(), [](const Particle& a, const Particle& b) { return a.J < b.J; });
+  ASSERT_NE(deepest, start.end());
+  EXPECT_NEAR(deepest->J, std::pow(1.0 + 7.0 * 1000 * 9.81 * 0.195 / 1e5, -1.0 / 7.0), 1e-5);
+  const test::CliResult two = run(dir, scene, dir / "np2", mpirun(2));
+  ASSERT_EQ(two.status, 0) << two.err;
+  for (int f = 0; f <= 2; ++f)
+    EXPECT_TRUE(sameFile(framePly(dir / "np2", f), framePly(dir / "one", f))) << "frame " << f;
+}
+
 // `scene` run under n processes into DIR/npN, which it returns (empty if
 // the run failed, which it reports); what run.json says every process made
 // its part of must be `together`, and no process gathers particles.
