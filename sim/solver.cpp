@@ -478,7 +478,7 @@ void Solver::collideSolids() {
                                  three && s.front_fields);
   }
   PhaseTimer part(times_.solid_parts.collide);
-  coupling_->collide(grid_, points_, params_);
+  coupling_->collide(grid_, points_, params_, flip_ ? &flip_grid_ : nullptr);
   coupling_->finishFronts(grid_);
   for (size_t b = 0; b < world_.bodies.size(); ++b) {
     if (!world_.bodies[b].fixed) continue;

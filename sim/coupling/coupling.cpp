@@ -487,7 +487,7 @@ void GridCoupling::keepPreUpdate(const std::vector<GridNode>& grid) {
 }
 
 void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
-                           const TransferParams& p) {
+                           const TransferParams& p, std::vector<GridNode>* flip) {
   delta_.assign(nodes_.size(), Vec3f::Zero());
   const bool single = solver_.coupling == CouplingScheme::SingleGrid;
   const bool before = solver_.contact_velocity == ContactVelocity::BeforeUpdate;
@@ -632,7 +632,10 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
       if (c.fixed) addNodeLoad(c.fixed_solid, c, c.m_mpm * (c.v_mpm - vc));
       // Split over processes, every copy of the node takes its velocity.
       if (c.g != kNotHere)
-        for (int d = 0; d < 3; ++d) grid[c.g].v[d] = vc[d];
+        for (int d = 0; d < 3; ++d) {
+          if (flip) (*flip)[c.g].v[d] += vc[d] - grid[c.g].v[d];
+          grid[c.g].v[d] = vc[d];
+        }
       if (!c.fixed) setChange(k, vc - c.v_vol);
     }
     return;
@@ -711,6 +714,13 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
       GridNode& g = grid[c.g];
       const Vec3f v = c.v_mpm + c.P / c.m_all;
       for (int d = 0; d < 3; ++d) g.v[d] = v[d];
+      // FLIP particles add the node's change to their own velocity: without
+      // the collision's share in it they kept 95% of their approach, and
+      // the collision took it from the node again every step, a push the
+      // water never paid for (a slab at its draft was thrown out of the
+      // water at 0.28 m/s while the water was pressed 4% smaller).
+      if (flip)
+        for (int d = 0; d < 3; ++d) (*flip)[c.g].v[d] += c.P[d] / c.m_all;
     }
     // The opposite impulse goes to the solid: a rigid body's own node to the
     // body, at the node; any other solid's node to its points (gather),

@@ -85,7 +85,10 @@ class GridCoupling {
   // shared node whose MPM material approaches the solid. With a single grid
   // both sides take the mass-weighted velocity instead (they stick).
   // `grid` holds MPM velocities after the grid update; it is changed in place.
-  void collide(std::vector<GridNode>& grid, const SolidPoints& points, const TransferParams& p);
+  // With FLIP, `flip` holds each node's velocity change over the step, which
+  // the particles add to their own: it takes the collision's change too.
+  void collide(std::vector<GridNode>& grid, const SolidPoints& points, const TransferParams& p,
+               std::vector<GridNode>* flip = nullptr);
 
   // With `gaps`, the gap between the MPM material and the solids at every node: the
   // smallest clearance (distance to the solids' surface less half a
