@@ -244,80 +244,50 @@ int main(int argc, char** argv) {
       solver.advanceTo(s.settle + k / fps);
     const double b = bottom(), l = level(), d = l - b;
     if (getenv("STUDY_FIELD") && (k == n || std::string(getenv("STUDY_FIELD")) == "all")) {
-      // The water's mean velocity per cell in the slab's middle (0.04 m
-      // either side of its mid-plane in z), x along, y up: vx and vy in mm/s.
-      const int nx = int(std::round(kX / s.dx)), ny = int(std::round(0.24 / s.dx));
-      std::vector<double> sx(size_t(nx * ny)), sy(sx.size()), sp(sx.size()), cnt(sx.size());
-      for (const triad::ParticleSet& set : w.sets) {
-        if (!std::get_if<triad::Water<float>>(&set.model)) continue;
-        for (size_t i = 0; i < set.size(); ++i) {
-          const triad::Vec3f& x = set.x[i];
-          if (std::abs(x.z() - 0.5 * (kSz0 + kSz1)) > 0.04) continue;
-          const int cx = int(x.x() / s.dx), cy = int(x.y() / s.dx);
-          if (cx < 0 || cx >= nx || cy < 0 || cy >= ny) continue;
-          sx[size_t(cy * nx + cx)] += set.v[i].x();
-          sy[size_t(cy * nx + cx)] += set.v[i].y();
-          sp[size_t(cy * nx + cx)] +=
-              std::get_if<triad::Water<float>>(&set.model)->pressure(set.J[i]);
-          cnt[size_t(cy * nx + cx)] += 1;
-        }
-      }
-      for (int cy = ny - 1; cy >= 0; --cy) {
-        std::printf("y%5.3f", (cy + 0.5) * s.dx);
-        for (int cx = 0; cx < nx; ++cx) {
-          const size_t c = size_t(cy * nx + cx);
-          if (cnt[c] == 0)
-            std::printf("    .    ");
-          else
-            std::printf(" %4.0f,%-4.0f", 1000 * sx[c] / cnt[c], 1000 * sy[c] / cnt[c]);
-        }
-        std::printf("\n");
-      }
-      // Across the tank at the slab's middle (0.02 m either side of its
-      // centre in x): the water's mean vx and vy per cell, z along, y up, mm/s.
-      {
-        const int nz = int(std::round(kZ / s.dx));
-        std::vector<double> ax(size_t(nz * ny)), ay(ax.size()), an(ax.size());
-        const double xm = 0.5 * (sx0 + sx1);
+      // The water's mean velocity (mm/s) and pressure (Pa) per cell in a
+      // slice of the tank, y up and `along` (0: x, 2: z) across the page,
+      // of the particles within `half` of `centre` along the third axis.
+      const int ny = int(std::round(0.24 / s.dx));
+      auto slice = [&](char tag, int along, double centre, double half, bool pressure) {
+        const int other = 2 - along, nu = int(std::round((along == 0 ? kX : kZ) / s.dx));
+        std::vector<double> su(size_t(nu * ny)), sv(su.size()), sp(su.size()), cnt(su.size());
         for (const triad::ParticleSet& set : w.sets) {
-          if (!std::get_if<triad::Water<float>>(&set.model)) continue;
+          const auto* wat = std::get_if<triad::Water<float>>(&set.model);
+          if (!wat) continue;
           for (size_t i = 0; i < set.size(); ++i) {
             const triad::Vec3f& x = set.x[i];
-            if (std::abs(x.x() - xm) > 0.02) continue;
-            const int cz = int(x.z() / s.dx), cy = int(x.y() / s.dx);
-            if (cz < 0 || cz >= nz || cy < 0 || cy >= ny) continue;
-            ax[size_t(cy * nz + cz)] += set.v[i].x();
-            ay[size_t(cy * nz + cz)] += set.v[i].y();
-            an[size_t(cy * nz + cz)] += 1;
+            if (std::abs(x[other] - centre) > half) continue;
+            const int cu = int(x[along] / s.dx), cy = int(x.y() / s.dx);
+            if (cu < 0 || cu >= nu || cy < 0 || cy >= ny) continue;
+            const size_t c = size_t(cy * nu + cu);
+            su[c] += set.v[i].x();
+            sv[c] += set.v[i].y();
+            sp[c] += wat->pressure(set.J[i]);
+            cnt[c] += 1;
           }
         }
         for (int cy = ny - 1; cy >= 0; --cy) {
-          std::printf("x%5.3f", (cy + 0.5) * s.dx);
-          for (int cz = 0; cz < nz; ++cz) {
-            const size_t c = size_t(cy * nz + cz);
-            if (an[c] == 0)
-              std::printf("     .    ");
+          std::printf("%c%5.3f", tag, (cy + 0.5) * s.dx);
+          for (int cu = 0; cu < nu; ++cu) {
+            const size_t c = size_t(cy * nu + cu);
+            if (cnt[c] == 0)
+              std::printf(pressure ? "     ." : "    .    ");
+            else if (pressure)
+              std::printf(" %5.0f", sp[c] / cnt[c]);
             else
-              std::printf(" %4.0f,%-4.0f", 1000 * ax[c] / an[c], 1000 * ay[c] / an[c]);
+              std::printf(" %4.0f,%-4.0f", 1000 * su[c] / cnt[c], 1000 * sv[c] / cnt[c]);
           }
           std::printf("\n");
         }
-      }
-      // The water's mean pressure per cell, Pa.
-      for (int cy = ny - 1; cy >= 0; --cy) {
-        std::printf("p%5.3f", (cy + 0.5) * s.dx);
-        for (int cx = 0; cx < nx; ++cx) {
-          const size_t c = size_t(cy * nx + cx);
-          if (cnt[c] == 0)
-            std::printf("     .");
-          else
-            std::printf(" %5.0f", sp[c] / cnt[c]);
-        }
-        std::printf("\n");
-      }
+      };
+      // The slab's mid-plane (0.04 m either side of it in z): vx, vy, then
+      // the pressure; across the tank at the slab's middle (0.02 m either
+      // side in x): vx, vy.
+      const double zm = 0.5 * (kSz0 + kSz1), xm = 0.5 * (sx0 + sx1);
+      slice('y', 0, zm, 0.04, false);
+      slice('x', 2, xm, 0.02, false);
+      slice('p', 0, zm, 0.04, true);
     }
-    // The water's force on the slab over the interval, in units of the
-    // slab's weight.
     const double weight = w.bodies.empty() ? 1.0 : rho * t * slab_area * 9.81;
     const double fy = w.bodies.empty() ? 0.0 : solver.bodyLoads()[0].force().y() / weight;
     // Mean water pressure in layers one cell thick under and over the

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 #include <variant>
 
 #include "scene_fixture.h"
@@ -24,18 +25,13 @@ constexpr double kRho = 1000.0, kG = 9.81;
 json tankScene(const char* start, double depth) {
   json j = test::baseScene("tank", {0.3, 0.5, 0.2}, 0.02);
   j["materials"]["water"] = {{"model", "water"}, {"density", kRho}, {"bulk_modulus", 1e5}};
-  j["objects"].push_back({{"name", "lower"},
-                          {"kind", "mpm"},
-                          {"material", "water"},
-                          {"shape", box({0, 0, 0}, {0.3, 0.1, 0.2})}});
-  j["objects"].push_back({{"name", "upper"},
-                          {"kind", "mpm"},
-                          {"material", "water"},
-                          {"shape", box({0, 0.1, 0}, {0.3, depth, 0.2})}});
-  j["objects"].push_back({{"name", "drop"},
-                          {"kind", "mpm"},
-                          {"material", "water"},
-                          {"shape", box({0.1, 0.4, 0.06}, {0.2, 0.46, 0.14})}});
+  const std::pair<const char*, json> waters[] = {
+      {"lower", box({0, 0, 0}, {0.3, 0.1, 0.2})},
+      {"upper", box({0, 0.1, 0}, {0.3, depth, 0.2})},
+      {"drop", box({0.1, 0.4, 0.06}, {0.2, 0.46, 0.14})}};
+  for (const auto& [name, shape] : waters)
+    j["objects"].push_back(
+        {{"name", name}, {"kind", "mpm"}, {"material", "water"}, {"shape", shape}});
   j["objects"].push_back({{"name", "stone"},
                           {"kind", "rigid"},
                           {"density", 2500},
