@@ -715,7 +715,8 @@ void GridCoupling::collide(std::vector<GridNode>& grid, const SolidPoints& pts,
       const Vec3f v = c.v_mpm + c.P / c.m_all;
       for (int d = 0; d < 3; ++d) g.v[d] = v[d];
       // FLIP particles add the node's change to their own velocity: without
-      // the collision's share in it they kept 95% of their approach, and
+      // the collision's share in it they kept flip_ratio (0.95 by default)
+      // of their approach, and
       // the collision took it from the node again every step, a push the
       // water never paid for (a slab at its draft was thrown out of the
       // water at 0.28 m/s while the water was pressed 4% smaller).
