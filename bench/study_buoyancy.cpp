@@ -244,9 +244,10 @@ int main(int argc, char** argv) {
       solver.advanceTo(s.settle + k / fps);
     const double b = bottom(), l = level(), d = l - b;
     if (getenv("STUDY_FIELD") && (k == n || std::string(getenv("STUDY_FIELD")) == "all")) {
-      // The water's mean velocity (mm/s) and pressure (Pa) per cell in a
-      // slice of the tank, y up and `along` (0: x, 2: z) across the page,
-      // of the particles within `half` of `centre` along the third axis.
+      // The water's mean velocity (mm/s), and with `pressure` then its mean
+      // pressure (Pa), per cell in a slice of the tank, y up and `along`
+      // (0: x, 2: z) across the page, of the particles within `half` of
+      // `centre` along the third axis.
       const int ny = int(std::round(0.24 / s.dx));
       auto slice = [&](char tag, int along, double centre, double half, bool pressure) {
         const int other = 2 - along, nu = int(std::round((along == 0 ? kX : kZ) / s.dx));
@@ -266,28 +267,31 @@ int main(int argc, char** argv) {
             cnt[c] += 1;
           }
         }
-        for (int cy = ny - 1; cy >= 0; --cy) {
-          std::printf("%c%5.3f", tag, (cy + 0.5) * s.dx);
-          for (int cu = 0; cu < nu; ++cu) {
-            const size_t c = size_t(cy * nu + cu);
-            if (cnt[c] == 0)
-              std::printf(pressure ? "     ." : "    .    ");
-            else if (pressure)
-              std::printf(" %5.0f", sp[c] / cnt[c]);
-            else
-              std::printf(" %4.0f,%-4.0f", 1000 * su[c] / cnt[c], 1000 * sv[c] / cnt[c]);
+        for (const bool p : {false, true}) {
+          if (p && !pressure) break;
+          for (int cy = ny - 1; cy >= 0; --cy) {
+            std::printf("%c%5.3f", p ? 'p' : tag, (cy + 0.5) * s.dx);
+            for (int cu = 0; cu < nu; ++cu) {
+              const size_t c = size_t(cy * nu + cu);
+              if (cnt[c] == 0)
+                std::printf(p ? "     ." : "    .    ");
+              else if (p)
+                std::printf(" %5.0f", sp[c] / cnt[c]);
+              else
+                std::printf(" %4.0f,%-4.0f", 1000 * su[c] / cnt[c], 1000 * sv[c] / cnt[c]);
+            }
+            std::printf("\n");
           }
-          std::printf("\n");
         }
       };
-      // The slab's mid-plane (0.04 m either side of it in z): vx, vy, then
+      // The slab's mid-plane (0.04 m either side of it in z): vx, vy and
       // the pressure; across the tank at the slab's middle (0.02 m either
       // side in x): vx, vy.
-      const double zm = 0.5 * (kSz0 + kSz1), xm = 0.5 * (sx0 + sx1);
-      slice('y', 0, zm, 0.04, false);
-      slice('x', 2, xm, 0.02, false);
-      slice('p', 0, zm, 0.04, true);
+      slice('y', 0, 0.5 * (kSz0 + kSz1), 0.04, true);
+      slice('x', 2, 0.5 * (sx0 + sx1), 0.02, false);
     }
+    // The water's force on the slab over the interval, in units of the
+    // slab's weight.
     const double weight = w.bodies.empty() ? 1.0 : rho * t * slab_area * 9.81;
     const double fy = w.bodies.empty() ? 0.0 : solver.bodyLoads()[0].force().y() / weight;
     // Mean water pressure in layers one cell thick under and over the
@@ -393,8 +397,9 @@ int main(int argc, char** argv) {
         vy = mean.y();
         vib = std::sqrt(vib / f.totalMass());
       }
-      std::printf("t %.2f bottom %.4f level %.4f draft %.4f (%+.2f dx) v %.3f F/mg %.3f%s\n",
-                  k / fps, b, l, d, (d - draft) / s.dx, vy, fy,
+      // Frames faster than 100 a second get their time to the 0.1 ms.
+      std::printf("t %.*f bottom %.4f level %.4f draft %.4f (%+.2f dx) v %.3f F/mg %.3f%s\n",
+                  fps > 100 ? 4 : 2, k / fps, b, l, d, (d - draft) / s.dx, vy, fy,
                   w.elastics.empty() ? "" : (" vibration " + std::to_string(vib)).c_str());
     }
     if (k > n / 2) {

@@ -85,9 +85,10 @@ void GridCoupling::correctFront(std::vector<ParticleSet>& sets, const GridLayout
         const Vec3f& delta = (fp.mask >> k) & 1u ? front_dv_[i] : rest_dv_[i];
         const float w = st.w[0][a] * st.w[1][b] * st.w[2][c];
         const Vec3f r(float(a) - st.fx[0], float(b) - st.fx[1], float(c) - st.fx[2]);
+        const Mat3f dBk = w * delta * r.transpose();
         dv += w * delta;
-        dB += w * delta * r.transpose();
-        if ((fp.mask >> k) & 1u) dB_front += w * delta * r.transpose();
+        dB += dBk;
+        if ((fp.mask >> k) & 1u) dB_front += dBk;
       }
   const Mat3f dC = c_scale * dB;
   set.v[q] += dv;
